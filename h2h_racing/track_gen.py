@@ -1,0 +1,623 @@
+"""Procedural and hand-designed track geometry: smooth closed curves, checks and random tracks.
+
+Pure numpy (no cv2, no pymunk), so it sits at the bottom of the layering rule next to ``track.py``.
+
+* :func:`smooth_closed_curve` turns a handful of control points into a C2-smooth closed centre line
+  sampled at uniform arc-length spacing (periodic interpolating cubic spline).
+* :func:`curvature`, :func:`find_crossings`, :func:`border_polylines` and :func:`measure_track` are the
+  shared geometric checks used by the generator, by ``tracks/design.py`` and by the tests.
+* :func:`random_track` draws a seeded random closed track for training generalisation.
+
+Results are plain numpy arrays wrapped in the frozen :class:`TrackSpec`, so that ``h2h_racing.track.Track``
+can wrap them without this module depending on it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+TRACK_FORMAT = "h2h-racing-track/1"
+"""Value of the ``"format"`` key of the JSON track files written by ``tracks/design.py``."""
+
+MIN_RADIUS_FLOOR = 0.6
+"""Smallest centre-line radius of curvature [m] a random track may have, whatever its width."""
+
+RADIUS_TO_HALF_WIDTH = 1.2
+"""Required ratio of the minimum radius of curvature to the half-width of the track.
+
+The inner border of a corner of radius ``R`` is an offset curve of radius ``R - w/2``; ``R > w/2`` keeps it
+regular (no cusp), and the 20 % margin keeps the inner wall from degenerating into a point.
+"""
+
+
+@dataclass(frozen=True, slots=True)
+class TrackSpec:
+    """Geometry of a closed track as plain arrays (what ``Track`` wraps).
+
+    The loop is closed implicitly: the first vertex is not repeated, and the driving direction is the
+    order of the vertices.
+    """
+
+    name: str
+    """Short identifier, e.g. ``"speedway"`` or ``"random-1a2b3c4d"``."""
+    description: str
+    """One human-readable sentence."""
+    centre: FloatArray
+    """Centre line, shape (M, 2) as (x [m], y [m]), read-only."""
+    width_left: FloatArray
+    """Distance from the centre line to the left border, shape (M,) [m], read-only."""
+    width_right: FloatArray
+    """Distance from the centre line to the right border, shape (M,) [m], read-only."""
+
+    def __post_init__(self) -> None:
+        """Validate shapes and values, convert to float64 and freeze the arrays."""
+        centre = np.array(self.centre, dtype=np.float64)
+        if centre.ndim != 2 or centre.shape[1] != 2 or centre.shape[0] < 3:
+            raise ValueError(f"Expected centre of shape (M >= 3, 2), got {centre.shape}")
+        num_points = centre.shape[0]
+        widths = {}
+        for key in ("width_left", "width_right"):
+            value = np.array(getattr(self, key), dtype=np.float64)
+            if value.shape != (num_points,):
+                raise ValueError(f"Expected {key} of shape ({num_points},), got {value.shape}")
+            if not np.all(np.isfinite(value)) or np.any(value <= 0):
+                raise ValueError(f"Expected {key} > 0 and finite everywhere, got min {value.min()}")
+            widths[key] = value
+        if not np.all(np.isfinite(centre)):
+            raise ValueError("Expected a finite centre line, got NaN or inf")
+        for key, value in (("centre", centre), *widths.items()):
+            value.flags.writeable = False
+            object.__setattr__(self, key, value)
+
+    @property
+    def length(self) -> float:
+        """Lap length of the closed centre line [m]."""
+        return closed_length(self.centre)
+
+    def to_dict(self, decimals: int = 4) -> dict[str, Any]:
+        """Return the ``h2h-racing-track/1`` JSON document of this track.
+
+        Args:
+            decimals: Coordinates and widths are rounded to ``10**-decimals`` m.
+
+        Returns:
+            ``{"format", "name", "description", "x", "y", "width_left", "width_right"}`` with plain lists.
+        """
+
+        def rounded(values: FloatArray) -> list[float]:
+            return [float(v) for v in np.round(values, decimals)]
+
+        return {
+            "format": TRACK_FORMAT,
+            "name": self.name,
+            "description": self.description,
+            "x": rounded(self.centre[:, 0]),
+            "y": rounded(self.centre[:, 1]),
+            "width_left": rounded(self.width_left),
+            "width_right": rounded(self.width_right),
+        }
+
+
+@dataclass(frozen=True, slots=True)
+class TrackMetrics:
+    """Summary numbers of a closed track, as reported by :func:`measure_track`."""
+
+    length: float
+    """Lap length of the centre line [m]."""
+    min_width: float
+    """Smallest total width ``width_left + width_right`` [m]."""
+    max_width: float
+    """Largest total width [m]."""
+    min_radius: float
+    """Smallest radius of curvature of the centre line [m]."""
+    min_radius_ratio: float
+    """Smallest ``radius / half-width`` along the lap (the half-width on the inside of each corner).
+
+    Below 1 the inner border turns inside out. A corner that is locally too tight makes the border loop and
+    cross itself (counted in ``border_crossings``), but a uniformly too-narrow ring inverts the inner border
+    into a small non-crossing loop, so check this ratio too.
+    """
+    counter_clockwise: bool
+    """True when the vertex order runs counter-clockwise (positive signed area)."""
+    centre_crossings: int
+    """Number of crossing segment pairs of the centre line with itself."""
+    border_crossings: int
+    """Number of crossing segment pairs among the left and right borders (with themselves and each other)."""
+    clearance: float
+    """Smallest centre-line distance between parts of the lap more than ``3 * max_width`` apart along it [m].
+
+    Below ``max_width`` the tarmac of two parts of the track overlaps; see :func:`min_clearance`.
+    """
+    max_spacing: float
+    """Largest distance between consecutive vertices [m]."""
+    min_spacing: float
+    """Smallest distance between consecutive vertices [m]."""
+
+    @property
+    def is_simple(self) -> bool:
+        """True when neither the centre line nor the borders cross."""
+        return self.centre_crossings == 0 and self.border_crossings == 0
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Smooth closed curves
+# ----------------------------------------------------------------------------------------------------------
+
+
+def _as_points(points: npt.ArrayLike, name: str, min_points: int = 3) -> FloatArray:
+    array = np.asarray(points, dtype=np.float64)
+    if array.ndim != 2 or array.shape[1] != 2 or array.shape[0] < min_points:
+        raise ValueError(f"Expected {name} of shape (K >= {min_points}, 2), got {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"Expected finite {name}, got NaN or inf")
+    return array
+
+
+def _periodic_spline_moments(points: FloatArray, knots_step: FloatArray) -> FloatArray:
+    """Solve for the second derivatives ``M_i`` of the periodic interpolating cubic spline.
+
+    With ``h_i = t_{i+1} - t_i`` and ``P_i`` the control points, C2 continuity at every knot gives
+    (indices modulo K)::
+
+        h_{i-1} M_{i-1} + 2 (h_{i-1} + h_i) M_i + h_i M_{i+1} = 6 [(P_{i+1} - P_i)/h_i - (P_i - P_{i-1})/h_{i-1}]
+
+    a cyclic tridiagonal system, strictly diagonally dominant, so always solvable. K is small (tens),
+    so a dense solve is simplest.
+    """
+    num = points.shape[0]
+    h = knots_step
+    h_prev = np.roll(h, 1)
+    idx = np.arange(num)
+    system = np.zeros((num, num))
+    system[idx, (idx - 1) % num] += h_prev
+    system[idx, idx] += 2.0 * (h_prev + h)
+    system[idx, (idx + 1) % num] += h
+    slope = (np.roll(points, -1, axis=0) - points) / h[:, None]
+    rhs = 6.0 * (slope - np.roll(slope, 1, axis=0))
+    return np.linalg.solve(system, rhs)
+
+
+def _eval_spline(
+    points: FloatArray, moments: FloatArray, knots: FloatArray, h: FloatArray, t: FloatArray
+) -> FloatArray:
+    """Evaluate the periodic cubic spline at parameters ``t`` in ``[0, knots[-1])``.
+
+    On span ``i`` with ``u = t - t_i`` (standard second-derivative form)::
+
+        S(u) = M_i (h-u)^3/(6h) + M_{i+1} u^3/(6h) + (P_i/h - M_i h/6)(h-u) + (P_{i+1}/h - M_{i+1} h/6) u
+    """
+    num = points.shape[0]
+    span = np.clip(np.searchsorted(knots, t, side="right") - 1, 0, num - 1)
+    nxt = (span + 1) % num
+    hs = h[span][:, None]
+    u = (t - knots[span])[:, None]
+    v = hs - u
+    m0, m1 = moments[span], moments[nxt]
+    p0, p1 = points[span], points[nxt]
+    return m0 * v**3 / (6 * hs) + m1 * u**3 / (6 * hs) + (p0 / hs - m0 * hs / 6) * v + (p1 / hs - m1 * hs / 6) * u
+
+
+def smooth_closed_curve(control_points: npt.ArrayLike, spacing: float = 0.05) -> FloatArray:
+    """Interpolate a C2-smooth closed curve through control points, sampled at uniform arc length.
+
+    The curve is the periodic interpolating cubic spline with chord-length parameterisation: it passes
+    exactly through every control point, has continuous curvature (no steering jumps at the knots), and
+    keeps the order of the control points, so the direction of travel is the order given. The first
+    returned vertex is the first control point; the last vertex is not a repeat of the first.
+
+    Args:
+        control_points: Control points, shape (K, 2) with K >= 3, as (x [m], y [m]). Do not repeat the first
+            point at the end; consecutive points must be distinct.
+        spacing: Target distance between consecutive output vertices [m], > 0.
+
+    Returns:
+        Vertices of the closed curve, shape (M, 2) [m], with ``M = round(L / spacing)`` for lap length ``L``;
+        every gap, including the closing one, is within ~1e-3 relative of ``L / M``.
+
+    Raises:
+        ValueError: On a bad shape, non-finite values, repeated consecutive points or ``spacing <= 0``.
+
+    >>> angles = np.linspace(0, 2 * np.pi, 12, endpoint=False)
+    >>> curve = smooth_closed_curve(np.c_[np.cos(angles), np.sin(angles)], spacing=0.1)
+    >>> curve.shape, bool(np.allclose(np.hypot(curve[:, 0], curve[:, 1]), 1.0, atol=1e-3))
+    ((63, 2), True)
+    """
+    points = _as_points(control_points, "control_points")
+    if not (np.isfinite(spacing) and spacing > 0):
+        raise ValueError(f"Expected spacing > 0 [m], got {spacing}")
+    h = np.linalg.norm(np.roll(points, -1, axis=0) - points, axis=1)
+    if np.any(h <= 1e-9):
+        bad = np.flatnonzero(h <= 1e-9).tolist()
+        raise ValueError(
+            f"Expected distinct consecutive control points, got repeats after indices {bad} "
+            "(the loop closes implicitly; do not repeat the first point at the end)"
+        )
+    knots = np.concatenate([[0.0], np.cumsum(h)])
+    moments = _periodic_spline_moments(points, h)
+
+    # Dense evaluation (about spacing/10 between samples, at least 16 per span) to tabulate arc length
+    # s(t); then invert s(t) by linear interpolation and evaluate the spline exactly at the found t.
+    per_span = np.maximum(16, np.ceil(h / (spacing / 10.0)).astype(np.int64))
+    t_dense = np.concatenate(
+        [np.linspace(knots[i], knots[i + 1], n, endpoint=False) for i, n in enumerate(per_span)] + [knots[-1:]]
+    )
+    dense = _eval_spline(points, moments, knots, h, np.minimum(t_dense, np.nextafter(knots[-1], 0.0)))
+    dense[-1] = points[0]
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(dense, axis=0), axis=1))])
+    total = arc[-1]
+    num_out = max(3, round(total / spacing))
+    s_out = np.arange(num_out) * (total / num_out)
+    t_out = np.interp(s_out, arc, t_dense)
+    curve = _eval_spline(points, moments, knots, h, t_out)
+    curve[0] = points[0]
+    return curve
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Geometry of sampled closed curves
+# ----------------------------------------------------------------------------------------------------------
+
+
+def closed_length(points: npt.ArrayLike) -> float:
+    """Return the length of a closed polyline, closing segment included [m].
+
+    Args:
+        points: Vertices, shape (M, 2) [m], first vertex not repeated.
+    """
+    array = _as_points(points, "points", min_points=2)
+    return float(np.linalg.norm(np.roll(array, -1, axis=0) - array, axis=1).sum())
+
+
+def signed_area(points: npt.ArrayLike) -> float:
+    """Return the shoelace signed area of a closed polyline [m^2]; positive means counter-clockwise.
+
+    ``A = 1/2 sum_i (x_i y_{i+1} - x_{i+1} y_i)``.
+
+    Args:
+        points: Vertices, shape (M, 2) [m], first vertex not repeated.
+    """
+    array = _as_points(points, "points")
+    x, y = array[:, 0], array[:, 1]
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+def curvature(points: npt.ArrayLike) -> FloatArray:
+    """Return the signed curvature of a sampled closed curve at every vertex [1/m].
+
+    Uses the Menger curvature of each vertex and its two neighbours, ``kappa = 4 A / (|a| |b| |c|)`` with
+    ``A`` the signed triangle area: exactly ``1/R`` for three points on a circle of radius ``R``, whatever
+    their spacing. Positive means turning left (counter-clockwise).
+
+    Args:
+        points: Vertices, shape (M, 2) [m], first vertex not repeated; consecutive vertices distinct.
+
+    Returns:
+        Signed curvature, shape (M,) [1/m].
+
+    >>> square_circle = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])
+    >>> curvature(square_circle).round(6).tolist()
+    [1.0, 1.0, 1.0, 1.0]
+    """
+    array = _as_points(points, "points")
+    prev = np.roll(array, 1, axis=0)
+    nxt = np.roll(array, -1, axis=0)
+    a = array - prev
+    b = nxt - array
+    c = nxt - prev
+    cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]  # = 2 * signed triangle area
+    denom = np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1) * np.linalg.norm(c, axis=1)
+    if np.any(denom <= 0):
+        raise ValueError("Expected distinct consecutive vertices, got a repeated or folded-back vertex")
+    return 2.0 * cross / denom
+
+
+def min_radius_of_curvature(points: npt.ArrayLike) -> float:
+    """Return the smallest radius of curvature of a sampled closed curve [m] (``inf`` for a straight).
+
+    Args:
+        points: Vertices, shape (M, 2) [m], first vertex not repeated.
+    """
+    kappa_max = float(np.max(np.abs(curvature(points))))
+    return np.inf if kappa_max == 0 else 1.0 / kappa_max
+
+
+def left_normals(points: npt.ArrayLike) -> FloatArray:
+    """Return unit normals pointing to the left of the direction of travel, shape (M, 2).
+
+    The tangent at a vertex is the central difference ``p_{i+1} - p_{i-1}``, normalised; the left normal
+    is the tangent rotated by +90 degrees, ``(-t_y, t_x)``.
+
+    Args:
+        points: Vertices of a closed curve, shape (M, 2) [m], first vertex not repeated.
+    """
+    array = _as_points(points, "points")
+    tangent = np.roll(array, -1, axis=0) - np.roll(array, 1, axis=0)
+    norm = np.linalg.norm(tangent, axis=1, keepdims=True)
+    if np.any(norm <= 0):
+        raise ValueError("Expected a regular curve, got a vertex whose neighbours coincide")
+    tangent = tangent / norm
+    return np.stack([-tangent[:, 1], tangent[:, 0]], axis=1)
+
+
+def border_polylines(
+    centre: npt.ArrayLike, width_left: npt.ArrayLike, width_right: npt.ArrayLike
+) -> tuple[FloatArray, FloatArray]:
+    """Return the left and right borders, ``centre + n * width_left`` and ``centre - n * width_right``.
+
+    Args:
+        centre: Centre line, shape (M, 2) [m].
+        width_left: Distance to the left border, shape (M,) or scalar [m].
+        width_right: Distance to the right border, shape (M,) or scalar [m].
+
+    Returns:
+        ``(left, right)``, each of shape (M, 2) [m].
+    """
+    array = _as_points(centre, "centre")
+    normal = left_normals(array)
+    wl = np.broadcast_to(np.asarray(width_left, dtype=np.float64), array.shape[:1])
+    wr = np.broadcast_to(np.asarray(width_right, dtype=np.float64), array.shape[:1])
+    return array + normal * wl[:, None], array - normal * wr[:, None]
+
+
+def find_crossings(*polylines: npt.ArrayLike, chunk: int = 512) -> IntArray:
+    """Find every pair of crossing or touching segments among closed polylines (vectorised).
+
+    Each polyline is closed (its last vertex joins its first). All segments of all polylines are tested
+    against each other, except a segment against itself and against its two neighbours in the same
+    polyline (they share an endpoint by construction). Two segments ``p1p2`` and ``q1q2`` intersect when
+    their bounding boxes overlap and each one's endpoints are not strictly on the same side of the other:
+    ``orient(p1, p2, q1) * orient(p1, p2, q2) <= 0`` and ``orient(q1, q2, p1) * orient(q1, q2, p2) <= 0``
+    with ``orient(a, b, c) = cross(b - a, c - a)``. The bounding-box test also removes the false positives of
+    collinear but disjoint segments. Work is O(N^2) in blocks of ``chunk`` rows, cheap for a few thousand
+    segments.
+
+    Args:
+        *polylines: Closed polylines, each of shape (N_k >= 3, 2) [m], first vertex not repeated.
+        chunk: Rows per block (memory ~ chunk * N booleans).
+
+    Returns:
+        Crossing pairs, shape (P, 4) int64 as (polyline_a, segment_a, polyline_b, segment_b) with
+        ``(polyline_a, segment_a) < (polyline_b, segment_b)``; segment ``j`` joins vertex ``j`` to ``j + 1``.
+
+    >>> bow_tie = np.array([[0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [0.0, 1.0]])
+    >>> find_crossings(bow_tie).tolist()
+    [[0, 0, 0, 2]]
+    """
+    if not polylines:
+        raise ValueError("Expected at least one polyline, got none")
+    arrays = [_as_points(p, f"polylines[{k}]") for k, p in enumerate(polylines)]
+    start = np.concatenate(arrays)
+    end = np.concatenate([np.roll(a, -1, axis=0) for a in arrays])
+    owner = np.concatenate([np.full(len(a), k) for k, a in enumerate(arrays)])
+    local = np.concatenate([np.arange(len(a)) for a in arrays])
+    count = np.concatenate([np.full(len(a), len(a)) for a in arrays])
+    lo = np.minimum(start, end)
+    hi = np.maximum(start, end)
+    total = start.shape[0]
+    found: list[IntArray] = []
+    for first in range(0, total, chunk):
+        rows = np.arange(first, min(first + chunk, total))
+        # Only j > i, so each pair is tested once.
+        cols = np.arange(first + 1, total)
+        if cols.size == 0:
+            continue
+        overlap = (
+            (lo[rows, None, 0] <= hi[None, cols, 0])
+            & (lo[None, cols, 0] <= hi[rows, None, 0])
+            & (lo[rows, None, 1] <= hi[None, cols, 1])
+            & (lo[None, cols, 1] <= hi[rows, None, 1])
+            & (cols[None, :] > rows[:, None])
+        )
+        same = owner[rows, None] == owner[None, cols]
+        gap = np.abs(local[rows, None] - local[None, cols])
+        adjacent = same & ((gap == 1) | (gap == count[rows, None] - 1))
+        ii, jj = np.nonzero(overlap & ~adjacent)
+        if ii.size == 0:
+            continue
+        i, j = rows[ii], cols[jj]
+        p1, p2, q1, q2 = start[i], end[i], start[j], end[j]
+
+        def orient(a: FloatArray, b: FloatArray, c: FloatArray) -> FloatArray:
+            return (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+
+        hit = (orient(p1, p2, q1) * orient(p1, p2, q2) <= 0) & (orient(q1, q2, p1) * orient(q1, q2, p2) <= 0)
+        found.append(np.stack([owner[i[hit]], local[i[hit]], owner[j[hit]], local[j[hit]]], axis=1))
+    if not found:
+        return np.zeros((0, 4), dtype=np.int64)
+    return np.concatenate(found).astype(np.int64)
+
+
+def min_clearance(points: npt.ArrayLike, exclude_arc: float) -> float:
+    """Return the smallest distance between two vertices at least ``exclude_arc`` apart along the loop [m].
+
+    Vertices close along the loop are close in space by construction; this measures how near *different*
+    parts of the track come to each other (two parts closer than the track width overlap).
+
+    Args:
+        points: Vertices of a closed curve, shape (M, 2) [m], first vertex not repeated.
+        exclude_arc: Pairs whose cyclic arc-length separation is below this are ignored [m].
+
+    Returns:
+        The smallest such distance [m], ``inf`` when no pair is far enough apart along the loop.
+    """
+    array = _as_points(points, "points")
+    seg = np.linalg.norm(np.roll(array, -1, axis=0) - array, axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)[:-1]])
+    total = seg.sum()
+    best = np.inf
+    for first in range(0, len(array), 512):
+        rows = slice(first, first + 512)
+        ds = np.abs(s[rows, None] - s[None, :])
+        ds = np.minimum(ds, total - ds)
+        dist = np.linalg.norm(array[rows, None, :] - array[None, :, :], axis=2)
+        dist = np.where(ds >= exclude_arc, dist, np.inf)
+        best = min(best, float(dist.min()))
+    return best
+
+
+def measure_track(centre: npt.ArrayLike, width_left: npt.ArrayLike, width_right: npt.ArrayLike) -> TrackMetrics:
+    """Measure a closed track: length, widths, tightest corner, direction and self-intersections.
+
+    Args:
+        centre: Centre line, shape (M, 2) [m], first vertex not repeated.
+        width_left: Distance to the left border, shape (M,) or scalar [m].
+        width_right: Distance to the right border, shape (M,) or scalar [m].
+
+    Returns:
+        The :class:`TrackMetrics` of the track.
+    """
+    array = _as_points(centre, "centre")
+    wl = np.broadcast_to(np.asarray(width_left, dtype=np.float64), array.shape[:1])
+    wr = np.broadcast_to(np.asarray(width_right, dtype=np.float64), array.shape[:1])
+    kappa = curvature(array)
+    # The border on the inside of a corner is the one that can fold: left for left turns (kappa > 0).
+    inner_half_width = np.where(kappa > 0, wl, wr)
+    with np.errstate(divide="ignore"):
+        radius = np.where(kappa != 0, 1.0 / np.abs(kappa), np.inf)
+    left, right = border_polylines(array, wl, wr)
+    gaps = np.linalg.norm(np.roll(array, -1, axis=0) - array, axis=1)
+    total_width = wl + wr
+    return TrackMetrics(
+        length=float(gaps.sum()),
+        min_width=float(total_width.min()),
+        max_width=float(total_width.max()),
+        min_radius=float(radius.min()),
+        min_radius_ratio=float(np.min(radius / inner_half_width)),
+        counter_clockwise=signed_area(array) > 0,
+        centre_crossings=len(find_crossings(array)),
+        border_crossings=len(find_crossings(left, right)),
+        clearance=min_clearance(array, exclude_arc=3.0 * float(total_width.max())),
+        max_spacing=float(gaps.max()),
+        min_spacing=float(gaps.min()),
+    )
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Random tracks
+# ----------------------------------------------------------------------------------------------------------
+
+
+def _start_on_straight(centre: FloatArray, window: float) -> FloatArray:
+    """Roll the loop so that vertex 0 sits where the curvature, averaged over ``+-window`` m, is smallest.
+
+    Start lines belong on straights (as on every DeepRacer track), so the grid does not start in a bend.
+    """
+    kappa = np.abs(curvature(centre))
+    spacing = closed_length(centre) / len(centre)
+    half = max(1, round(window / spacing))
+    kernel = np.ones(2 * half + 1) / (2 * half + 1)
+    padded = np.concatenate([kappa[-half:], kappa, kappa[:half]])
+    smoothed = np.convolve(padded, kernel, mode="valid")
+    return np.roll(centre, -int(np.argmin(smoothed)), axis=0)
+
+
+def random_track(
+    rng: np.random.Generator,
+    *,
+    length_range: tuple[float, float] = (20.0, 45.0),
+    width: float = 1.0,
+    min_radius: float | None = None,
+    spacing: float = 0.05,
+    max_tries: int = 100,
+) -> TrackSpec:
+    """Draw a random closed track: a smoothed, star-shaped loop scaled to a random lap length.
+
+    Each try draws K in [8, 14] control points at jittered, sorted angles around a circle with random radii
+    (so the loop runs counter-clockwise and cannot wind twice), interpolates them with
+    :func:`smooth_closed_curve`, scales the loop to a lap length drawn uniformly from ``length_range``, and
+    accepts it only if
+
+    * its smallest radius of curvature is at least ``min_radius``;
+    * parts of the track that are more than ``3 * width`` apart along the loop stay at least
+      ``width + 0.25`` m apart (no overlapping tarmac, room for the walls);
+    * neither the centre line nor the borders (``centre +- normal * width / 2``) self-intersect.
+
+    Vertex 0 is moved to the straightest part of the loop, where a start line belongs. The result depends
+    only on the generator state, so the same seed gives bit-identical arrays.
+
+    Args:
+        rng: Source of randomness; it is advanced, never replaced.
+        length_range: ``(low, high)`` bounds of the lap length [m], ``0 < low <= high``.
+        width: Total (constant) track width [m], > 0; DeepRacer tracks are 0.76-1.07 m.
+        min_radius: Smallest allowed radius of curvature [m]. Defaults to
+            ``max(0.6, 1.2 * width / 2)``; values below ``width / 2`` are rejected (the inner border would fold).
+        spacing: Distance between centre-line vertices [m], > 0.
+        max_tries: Candidate loops to draw before giving up, >= 1.
+
+    Returns:
+        A :class:`TrackSpec` named ``"random-<8 hex digits of the geometry hash>"``.
+
+    Raises:
+        ValueError: On invalid arguments.
+        RuntimeError: When no valid track was found in ``max_tries`` tries.
+    """
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(
+            f"Expected rng to be a numpy.random.Generator, got {type(rng).__name__}; use np.random.default_rng(seed)"
+        )
+    low, high = (float(v) for v in length_range)
+    if not (0 < low <= high and np.isfinite(high)):
+        raise ValueError(f"Expected length_range = (low, high) with 0 < low <= high [m], got {length_range}")
+    if not (np.isfinite(width) and width > 0):
+        raise ValueError(f"Expected width > 0 [m], got {width}")
+    half_width = 0.5 * width
+    if min_radius is None:
+        min_radius = max(MIN_RADIUS_FLOOR, RADIUS_TO_HALF_WIDTH * half_width)
+    if not min_radius > half_width:
+        raise ValueError(
+            f"Expected min_radius > width / 2 = {half_width} m (else the inner border folds), got {min_radius}"
+        )
+    if not (np.isfinite(spacing) and spacing > 0):
+        raise ValueError(f"Expected spacing > 0 [m], got {spacing}")
+    if max_tries < 1:
+        raise ValueError(f"Expected max_tries >= 1, got {max_tries}")
+
+    clearance = width + 0.25
+    rejections = {"radius": 0, "clearance": 0, "crossing": 0}
+    for _ in range(max_tries):
+        num_points = int(rng.integers(8, 15))
+        step = 2 * np.pi / num_points
+        angles = np.arange(num_points) * step + rng.uniform(-0.3, 0.3, num_points) * step
+        radii = rng.uniform(0.55, 1.0, num_points)
+        unit = np.c_[radii * np.cos(angles), radii * np.sin(angles)]
+        target = float(rng.uniform(low, high))
+        # The spline is scale-covariant (chord-length knots scale with the points), so scaling the control
+        # points by target / L0 scales the whole curve and its lap length exactly.
+        coarse = smooth_closed_curve(unit, spacing=closed_length(unit) / 400)
+        centre = smooth_closed_curve(unit * (target / closed_length(coarse)), spacing=spacing)
+        if min_radius_of_curvature(centre) < min_radius:
+            rejections["radius"] += 1
+            continue
+        if min_clearance(centre[::2], exclude_arc=3 * width) < clearance:
+            rejections["clearance"] += 1
+            continue
+        left, right = border_polylines(centre, half_width, half_width)
+        if len(find_crossings(centre)) or len(find_crossings(left, right)):
+            rejections["crossing"] += 1
+            continue
+        centre = _start_on_straight(centre, window=1.0)
+        digest = hashlib.sha256(np.round(centre, 4).tobytes()).hexdigest()[:8]
+        widths = np.full(len(centre), half_width)
+        return TrackSpec(
+            name=f"random-{digest}",
+            description=(
+                f"Random closed track, {closed_length(centre):.1f} m lap, {width:.2f} m wide, "
+                f"min radius {min_radius_of_curvature(centre):.2f} m."
+            ),
+            centre=centre,
+            width_left=widths,
+            width_right=widths.copy(),
+        )
+    raise RuntimeError(
+        f"random_track found no valid track in {max_tries} tries (rejected: {rejections}) for "
+        f"length_range={length_range}, width={width}, min_radius={min_radius}; "
+        "try a longer length_range, a smaller width or min_radius, or more max_tries"
+    )
