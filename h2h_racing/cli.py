@@ -1,0 +1,124 @@
+"""The ``h2h-racing`` command line.
+
+    h2h-racing race [--track speedway] [--drivers racing_line,pure_pursuit] [...]
+    h2h-racing tracks list
+    h2h-racing tracks show NAME [--out NAME.png]
+    h2h-racing tracks import FILE [--name NAME] [--scale S | --scale L,W] [--reverse] [--out F]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Sequence
+
+
+def _scale(text: str) -> float | tuple[float, float]:
+    parts = [float(p) for p in text.split(",")]
+    if len(parts) == 1:
+        return parts[0]
+    if len(parts) == 2:
+        return (parts[0], parts[1])
+    raise argparse.ArgumentTypeError(f"--scale takes S or L,W (length and width factors), "
+                                     f"got {text!r}")
+
+
+def _cmd_tracks_list(args: argparse.Namespace) -> int:
+    from h2h_racing.track_io import catalogue, load_track
+
+    print(f"{'name':<16} {'lap m':>7} {'width m':>12}  description")
+    for name in sorted(catalogue()):
+        t = load_track(name)
+        width = f"{t.width.min():.2f}-{t.width.max():.2f}"
+        print(f"{name:<16} {t.length:>7.2f} {width:>12}  {t.description}")
+    return 0
+
+
+def _cmd_tracks_show(args: argparse.Namespace) -> int:
+    import cv2
+
+    from h2h_racing.render import SpectatorRenderer
+    from h2h_racing.track_io import load_track
+
+    track = load_track(args.name)
+    out = Path(args.out or f"{track.name or Path(args.name).stem}.png")
+    img = SpectatorRenderer(track, width=args.width).background
+    cv2.imwrite(str(out), cv2.cvtColor(img, cv2.COLOR_RGB2BGR))
+    print(f"{track.name}: lap {track.length:.2f} m, width {track.width.min():.2f}-"
+          f"{track.width.max():.2f} m -> {out}")
+    return 0
+
+
+def _cmd_tracks_import(args: argparse.Namespace) -> int:
+    from h2h_racing.track_io import load_track, save_track
+
+    track = load_track(args.file, scale=args.scale, reverse=args.reverse)
+    name = args.name or Path(args.file).stem
+    out = Path(args.out or f"{name}.json")
+    save_track(track, out, name=name)
+    print(f"imported {args.file}: lap {track.length:.2f} m, width {track.width.min():.2f}-"
+          f"{track.width.max():.2f} m, {len(track.centre)} points -> {out}")
+    return 0
+
+
+def _cmd_race(args: argparse.Namespace) -> int:
+    from h2h_racing.match import run_race
+
+    drivers = [d.strip() for d in args.drivers.split(",") if d.strip()]
+    result = run_race(track=args.track, drivers=drivers, race_type=args.race_type,
+                      laps=args.laps, seed=args.seed, video=args.video)
+    print(result.table)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Return the argument parser of the ``h2h-racing`` command."""
+    parser = argparse.ArgumentParser(prog="h2h-racing", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    race = sub.add_parser("race", help="race scripted drivers and print the results table")
+    race.add_argument("--track", default="speedway", help="catalogue name or track file")
+    race.add_argument("--drivers", default="racing_line,pure_pursuit",
+                      help="comma-separated drivers, one per car (see policies/README.md)")
+    race.add_argument("--race-type", default="head_to_head",
+                      choices=["head_to_head", "time_trial", "object_avoidance"])
+    race.add_argument("--laps", type=int, default=None, help="lap target (default: preset)")
+    race.add_argument("--seed", type=int, default=0)
+    race.add_argument("--video", default=None, help="write a top-down MP4 of the race here")
+    race.set_defaults(func=_cmd_race)
+
+    tracks = sub.add_parser("tracks", help="list, preview and import tracks")
+    tsub = tracks.add_subparsers(dest="tracks_command", required=True)
+    tlist = tsub.add_parser("list", help="list the track catalogue")
+    tlist.set_defaults(func=_cmd_tracks_list)
+    show = tsub.add_parser("show", help="write a PNG preview of a track")
+    show.add_argument("name", help="catalogue name or track file")
+    show.add_argument("--out", default=None, help="PNG path (default: NAME.png)")
+    show.add_argument("--width", type=int, default=720, help="image width in pixels")
+    show.set_defaults(func=_cmd_tracks_show)
+    imp = tsub.add_parser("import", help="convert a DeepRacer .npy or centre-line .csv track")
+    imp.add_argument("file", help="a .npy (DeepRacer route) or .csv (x_m,y_m,w_tr_right_m,"
+                                  "w_tr_left_m) file")
+    imp.add_argument("--name", default=None, help="track name (default: file stem)")
+    imp.add_argument("--scale", type=_scale, default=None,
+                     help="scale factor S, or L,W for separate length and width factors")
+    imp.add_argument("--reverse", action="store_true", help="drive the track the other way")
+    imp.add_argument("--out", default=None, help="output .json (default: NAME.json)")
+    imp.set_defaults(func=_cmd_tracks_import)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; return the exit status."""
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args))
+    except (ValueError, FileNotFoundError) as exc:
+        print(f"h2h-racing: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

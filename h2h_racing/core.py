@@ -1,0 +1,592 @@
+"""The batched simulation core: E env copies x N cars in arrays.
+
+``RaceCore`` holds the state of every car of every env copy in arrays with leading axes
+``(E, N)`` and advances them together: numpy dynamics for all cars, one pymunk Space for
+contacts, vectorised race rules, observations and rewards. The PettingZoo env is this core
+with E = 1; the training VecEnv is the same core with E in the hundreds.
+
+A step is two-phase: commands are applied to every car, physics runs, the state is read
+back once, and then race rules, observations and rewards are computed from that same
+snapshot, so no car sees a half-updated world.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from h2h_racing import race, spawn
+from h2h_racing.config import EnvConfig
+from h2h_racing.dynamics import SingleTrackModel
+from h2h_racing.physics import PhysicsWorld
+from h2h_racing.track import Track
+
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+IntArray = npt.NDArray[np.int64]
+
+ENV_GAP = 30.0
+"""Empty space between the bounding boxes of neighbouring env copies in the shared Space [m]."""
+PARK_MARGIN = 3.0
+"""Parked cars wait this far beyond the track's bounding box [m]."""
+REPLACE_CLEARANCE = 0.45
+"""A re-placed car needs this much distance to every other body's centre [m]."""
+
+
+@dataclass
+class StepEvents:
+    """What happened during one step, per car, shape (E, N) unless noted."""
+
+    terminated: BoolArray
+    """The car's episode ended for a reason inside the task (finished or retired)."""
+    truncated: BoolArray
+    """The car's episode was cut short by the time limit or ``max_cycles``."""
+
+    off_track: BoolArray
+    """The car went off track (all four wheels off) this step."""
+    crashed: BoolArray
+    """The car was judged at fault for a contact (it was behind, or hit an obstacle)."""
+    collided: BoolArray
+    """The car was in a new contact, at fault or not."""
+    reversed: BoolArray
+    """The car drove the wrong way for ``rules.reversed_steps`` steps."""
+    immobilised: BoolArray
+    """The car did not move for ``rules.immobilised_steps`` steps."""
+    penalised: BoolArray
+    """The car received a time penalty (race mode) this step."""
+    replaced: BoolArray
+    """The car was put back on the track after its penalty this step."""
+    lap_completed: BoolArray
+    """The car completed a lap this step."""
+    finished: BoolArray
+    """The car reached the lap target this step."""
+    progress: FloatArray
+    """Metres of track progress this step (negative when going backwards)."""
+    overtakes: IntArray
+    """Cars this car passed on track this step."""
+    overtaken: IntArray
+    """Cars that passed this car this step."""
+    defences: IntArray
+    """Defences completed by this car this step."""
+    collisions: list[tuple[int, int, int, bool]] = field(default_factory=list)
+    """``(env, car at fault, other car or obstacle index, other_is_obstacle)``."""
+    passes: list[tuple[int, int, int]] = field(default_factory=list)
+    """``(env, car that passed, car passed)``."""
+
+
+class RaceCore:
+    """Batched race simulation over ``num_envs`` copies of one track.
+
+    Args:
+        config: Environment configuration.
+        track: The track every copy races on.
+        num_envs: Number of env copies E.
+    """
+
+    def __init__(self, config: EnvConfig, track: Track, num_envs: int = 1) -> None:
+        if not isinstance(num_envs, int) or num_envs < 1:
+            raise ValueError(f"num_envs must be an int >= 1, got {num_envs!r}")
+        self.config = config
+        self.rules = config.race_rules
+        self.track = track
+        self.num_envs = num_envs
+        self.num_cars = config.num_cars
+        self.num_obstacles = config.obstacle_count
+        self.dt = config.step_dt
+        self.model = SingleTrackModel(config.car)
+        self.inner_sign = 1 if track.is_ccw else -1
+        car = config.car
+        # Wheel centres in the body frame: rear axle at -l_r, front at +l_f, +-track/2.
+        half_track = 0.5 * car.wheel_track
+        self._wheels = np.array([[car.cg_to_front, half_track], [car.cg_to_front, -half_track],
+                                 [-car.cg_to_rear, half_track], [-car.cg_to_rear, -half_track]])
+        xmin, ymin, xmax, ymax = track.bounds
+        park_room = PARK_MARGIN + 0.5 * self.num_cars
+        pitch_x = (xmax - xmin) + park_room + ENV_GAP
+        pitch_y = (ymax - ymin) + ENV_GAP
+        cols = math.ceil(math.sqrt(num_envs))
+        e = np.arange(num_envs)
+        self.env_offset = np.stack([(e % cols) * pitch_x, (e // cols) * pitch_y], axis=1)
+        """World offset of each env copy in the shared pymunk Space, shape (E, 2), metres."""
+        k = np.arange(self.num_cars)
+        self._park = np.stack([np.full(self.num_cars, xmax + PARK_MARGIN),
+                               ymin + 0.5 * k], axis=1)
+        self.rng = np.random.default_rng()
+        self.max_cycles = config.max_cycles
+        """Steps after which every car is truncated (the env may change it at run time)."""
+        self.world: PhysicsWorld | None = None
+        self._allocate()
+
+    # ------------------------------------------------------------------ state
+    def _allocate(self) -> None:
+        e, n, k = self.num_envs, self.num_cars, self.num_obstacles
+        zeros = np.zeros
+        self.position = zeros((e, n, 2))
+        """Car positions in track coordinates, (E, N, 2), metres."""
+        self.yaw = zeros((e, n))
+        """Car headings, (E, N), radians."""
+        self.velocity = zeros((e, n, 2))
+        """World-frame velocities, (E, N, 2), m/s."""
+        self.yaw_rate = zeros((e, n))
+        """Yaw rates, (E, N), rad/s."""
+        self.steer = zeros((e, n))
+        """Front steering angles, (E, N), radians."""
+        self.speed = zeros((e, n))
+        """Forward (body-frame) speed, (E, N), m/s."""
+        self.steer_command = zeros((e, n))
+        """Last commanded steering angle, (E, N), radians."""
+        self.speed_command = zeros((e, n))
+        """Last commanded speed, (E, N), m/s."""
+        self.s = zeros((e, n))
+        """Arc position on the centre line, (E, N), metres in [0, L)."""
+        self.d = zeros((e, n))
+        """Signed lateral offset from the centre line, (E, N), metres, left positive."""
+        self.distance = zeros((e, n))
+        """Unwrapped race distance from the start line, (E, N), metres."""
+        self.start_distance = zeros((e, n))
+        """Race distance at the start of the episode, (E, N), metres."""
+        self.lap_origin = zeros((e, n))
+        """Distance from which laps are counted (start line in races), (E, N), metres."""
+        self.laps = zeros((e, n), dtype=np.int64)
+        """Completed laps, (E, N)."""
+        self.lap_start_time = zeros((e, n))
+        """Simulated time at which the current lap started, (E, N), seconds."""
+        self.last_lap_time = np.full((e, n), np.inf)
+        """Time of the last completed lap, (E, N), seconds (inf: none yet)."""
+        self.best_lap_time = np.full((e, n), np.inf)
+        """Best valid lap time, (E, N), seconds (inf: none yet)."""
+        self.lap_times: list[list[list[float]]] = [[[] for _ in range(n)] for _ in range(e)]
+        """Lap times of every car, ``lap_times[env][car]``, seconds (few appends per lap)."""
+        self.lap_valid: list[list[list[bool]]] = [[[] for _ in range(n)] for _ in range(e)]
+        """Whether each lap was valid (resets within the limit)."""
+        self.lap_resets = zeros((e, n), dtype=np.int64)
+        """Resets during the current lap, (E, N)."""
+        self.resets = zeros((e, n), dtype=np.int64)
+        """Resets (re-placements) over the episode, (E, N)."""
+        self.penalties = zeros((e, n), dtype=np.int64)
+        """Time penalties received, (E, N)."""
+        self.penalty_time = zeros((e, n))
+        """Total penalty seconds received, (E, N)."""
+        self.frozen_until = zeros((e, n))
+        """Simulated time until which a penalised car is frozen, (E, N), seconds."""
+        self.pending_replace = zeros((e, n), dtype=bool)
+        """The car is frozen and will be put back on track when its penalty ends."""
+        self.replace_distance = zeros((e, n))
+        """Race distance at which a penalised car is put back, (E, N), metres."""
+        self.done = zeros((e, n), dtype=bool)
+        """The car's episode is over (finished, retired or truncated); it is parked."""
+        self.finished = zeros((e, n), dtype=bool)
+        """The car reached the lap target."""
+        self.finish_time = np.full((e, n), np.inf)
+        """Simulated time at which the car finished, (E, N), seconds."""
+        self.reverse_count = zeros((e, n), dtype=np.int64)
+        self.immobile_count = zeros((e, n), dtype=np.int64)
+        self.off_tracks = zeros((e, n), dtype=np.int64)
+        """Off-track infractions over the episode, (E, N)."""
+        self.crashes = zeros((e, n), dtype=np.int64)
+        """Crashes at fault over the episode, (E, N)."""
+        self.collisions = zeros((e, n), dtype=np.int64)
+        """Contacts of any kind over the episode, (E, N)."""
+        self.overtakes = zeros((e, n), dtype=np.int64)
+        """On-track passes made over the episode, (E, N)."""
+        self.overtaken = zeros((e, n), dtype=np.int64)
+        """Times passed over the episode, (E, N)."""
+        self.defences = zeros((e, n), dtype=np.int64)
+        """Defences over the episode, (E, N)."""
+        self.rank = np.ones((e, n), dtype=np.int64)
+        """Race position, 1 = leader, (E, N)."""
+        self.time = zeros(e)
+        """Simulated time of each env copy, (E,), seconds."""
+        self.steps = zeros(e, dtype=np.int64)
+        """Steps taken in the episode of each env copy, (E,)."""
+        self.obstacle_s = zeros((e, k))
+        """Arc position of each obstacle, (E, K), metres."""
+        self.obstacle_lane = zeros((e, k))
+        """Lane of each obstacle, (E, K): +1 left, -1 right."""
+        self.obstacle_d = zeros((e, k))
+        """Lateral offset of each obstacle from the centre line, (E, K), metres."""
+        self.obstacle_position = zeros((e, k, 2))
+        """Obstacle centres in track coordinates, (E, K, 2), metres."""
+        self.obstacle_yaw = zeros((e, k))
+        """Obstacle headings, (E, K), radians."""
+        self._parked = zeros((e, n), dtype=bool)
+        self._pressure = zeros((e, n, n))
+        self._faster = zeros((e, n, n), dtype=bool)
+        self._gap = zeros((e, n, n))
+
+    @property
+    def racing(self) -> BoolArray:
+        """Cars neither done nor frozen by a penalty, (E, N)."""
+        return ~self.done & (self.frozen_until <= self.time[:, None])
+
+    @property
+    def frozen(self) -> BoolArray:
+        """Cars serving a penalty, (E, N)."""
+        return ~self.done & (self.frozen_until > self.time[:, None])
+
+    @property
+    def episode_progress(self) -> FloatArray:
+        """Percent of a lap driven since the episode start, (E, N) (DeepRacer's progress)."""
+        return (self.distance - self.start_distance) * (100.0 / self.track.length)
+
+    # ------------------------------------------------------------------ reset
+    def seed(self, seed: int | None) -> None:
+        """Replace the core's random generator (the only source of randomness)."""
+        self.rng = np.random.default_rng(seed)
+
+    def reset(self, seed: int | None = None, slots: IntArray | None = None) -> None:
+        """Reset every env copy and build a new pymunk Space.
+
+        Args:
+            seed: Seed of a new random generator; None keeps the current generator, so a
+                later unseeded reset continues the seeded sequence deterministically.
+            slots: Grid slot of each car, shape (N,) or (E, N); None draws them as
+                ``config.grid`` says.
+        """
+        if seed is not None:
+            self.seed(seed)
+        car = self.config.car
+        self.world = PhysicsWorld(
+            num_cars=self.num_envs * self.num_cars,
+            num_obstacles=self.num_envs * self.num_obstacles,
+            car_size=(car.length, car.width), car_mass=car.mass, car_inertia=car.yaw_inertia,
+            obstacle_size=(self.config.obstacle_length, self.config.obstacle_width),
+            friction=car.body_friction, elasticity=car.body_elasticity)
+        self._allocate()
+        self._spawn(np.ones(self.num_envs, dtype=bool), slots)
+
+    def reset_envs(self, mask: BoolArray, slots: IntArray | None = None) -> None:
+        """Reset the env copies where ``mask`` is True, keeping the others running.
+
+        Args:
+            mask: Which copies to reset, shape (E,).
+            slots: Grid slots, shape (N,) or (sum(mask), N); None draws them.
+        """
+        if self.world is None:
+            raise RuntimeError("call reset() before reset_envs()")
+        mask = np.asarray(mask, dtype=bool)
+        if not mask.any():
+            return
+        self._spawn(mask, slots)
+
+    def _spawn(self, mask: BoolArray, slots: IntArray | None) -> None:
+        cfg, track = self.config, self.track
+        m = int(mask.sum())
+        n = self.num_cars
+        if slots is None:
+            slot = spawn.grid_assignment(self.rng, m, n, cfg.grid == "random")
+        else:
+            slot = np.broadcast_to(np.asarray(slots, dtype=np.int64), (m, n))
+            if sorted(slot[0].tolist()) != list(range(n)):
+                raise ValueError(f"slots must be a permutation of 0..{n - 1}, got {slot[0]}")
+        offset, lane = spawn.grid_slots(n, cfg.grid_spacing, self.inner_sign)
+        car_offset = offset[slot]
+        car_lane = lane[slot]
+        s = np.mod(car_offset, track.length)
+        d = spawn.lane_offset(track, s, car_lane)
+        pos, yaw = spawn.poses_on_track(track, s, d)
+        self.position[mask] = pos
+        self.yaw[mask] = yaw
+        self.velocity[mask] = 0.0
+        self.yaw_rate[mask] = 0.0
+        self.steer[mask] = 0.0
+        self.speed[mask] = 0.0
+        self.steer_command[mask] = 0.0
+        self.speed_command[mask] = 0.0
+        self.s[mask] = s
+        self.d[mask] = d
+        self.distance[mask] = car_offset
+        self.start_distance[mask] = car_offset
+        # Races count laps from the start line; training counts them from each car's start.
+        self.lap_origin[mask] = car_offset if self.rules.mode == "training" else 0.0
+        for name in ("laps", "lap_resets", "resets", "penalties", "reverse_count",
+                     "immobile_count", "off_tracks", "crashes", "collisions", "overtakes",
+                     "overtaken", "defences"):
+            getattr(self, name)[mask] = 0
+        for name in ("lap_start_time", "penalty_time", "frozen_until", "replace_distance"):
+            getattr(self, name)[mask] = 0.0
+        for name in ("last_lap_time", "best_lap_time", "finish_time"):
+            getattr(self, name)[mask] = np.inf
+        self.pending_replace[mask] = False
+        self._parked[mask] = False
+        self.done[mask] = False
+        self.finished[mask] = False
+        self.time[mask] = 0.0
+        self.steps[mask] = 0
+        self._pressure[mask] = 0.0
+        self._faster[mask] = False
+        for env in np.flatnonzero(mask).tolist():
+            self.lap_times[env] = [[] for _ in range(n)]
+            self.lap_valid[env] = [[] for _ in range(n)]
+        if self.num_obstacles:
+            obs_s, obs_lane = spawn.obstacle_layout(
+                track, self.rng, m, self.num_obstacles, cfg.obstacle_positions,
+                cfg.randomize_obstacles, self.inner_sign)
+            obs_d = spawn.lane_offset(track, obs_s, obs_lane)
+            opos, oyaw = spawn.poses_on_track(track, obs_s, obs_d)
+            self.obstacle_s[mask] = np.mod(obs_s, track.length)
+            self.obstacle_lane[mask] = obs_lane
+            self.obstacle_d[mask] = obs_d
+            self.obstacle_position[mask] = opos
+            self.obstacle_yaw[mask] = oyaw
+        self._update_ranks()
+        self._gap = race.pairwise_gap(self.distance)
+        self._sync_physics()
+
+    def _sync_physics(self) -> None:
+        """Write every body's pose and velocity into pymunk (after resets and teleports)."""
+        assert self.world is not None
+        e, n, k = self.num_envs, self.num_cars, self.num_obstacles
+        car_pos = (self.position + self.env_offset[:, None, :]).reshape(-1, 2)
+        obs_pos = (self.obstacle_position + self.env_offset[:, None, :]).reshape(-1, 2)
+        position = np.concatenate([car_pos, obs_pos])
+        angle = np.concatenate([self.yaw.reshape(-1), self.obstacle_yaw.reshape(-1)])
+        velocity = np.concatenate([self.velocity.reshape(-1, 2), np.zeros((e * k, 2))])
+        angular = np.concatenate([self.yaw_rate.reshape(-1), np.zeros(e * k)])
+        self.world.set_state(position, angle, velocity, angular)
+
+    # ------------------------------------------------------------------ step
+    def step(self, steer_command: FloatArray, speed_command: FloatArray) -> StepEvents:
+        """Advance every env copy by one step.
+
+        Args:
+            steer_command: Commanded steering angle, (E, N), radians (clipped to the car's
+                limit).
+            speed_command: Commanded forward speed, (E, N), m/s.
+
+        Returns:
+            The events of the step. Cars that are done or frozen ignore their commands.
+        """
+        if self.world is None:
+            raise RuntimeError("call reset() before step()")
+        cfg, rules, track = self.config, self.rules, self.track
+        e, n = self.num_envs, self.num_cars
+        dt = self.dt
+        racing = self.racing
+        max_steer = cfg.car.max_steer
+        steer_command = np.minimum(np.maximum(steer_command, -max_steer), max_steer) * racing
+        speed_command = speed_command * racing
+        self.steer_command = steer_command
+        self.speed_command = speed_command
+
+        # Phase 1: dynamics for all cars, then contacts and integration in pymunk.
+        velocity, yaw_rate, steer = self.model.step(
+            self.yaw.reshape(-1), self.velocity.reshape(-1, 2), self.yaw_rate.reshape(-1),
+            self.steer.reshape(-1), steer_command.reshape(-1), speed_command.reshape(-1), dt)
+        flat_racing = racing.reshape(-1)
+        velocity *= flat_racing[:, None]
+        yaw_rate *= flat_racing
+        prev_position = self.position
+        prev_distance = self.distance
+        position, yaw, velocity, yaw_rate = self.world.step(velocity, yaw_rate, dt,
+                                                            cfg.physics_substeps)
+        position = position.reshape(e, n, 2) - self.env_offset[:, None, :]
+        self.position = position
+        self.yaw = np.mod(yaw.reshape(e, n) + math.pi, 2.0 * math.pi) - math.pi
+        self.velocity = velocity.reshape(e, n, 2)
+        self.yaw_rate = yaw_rate.reshape(e, n)
+        self.steer = steer.reshape(e, n) * racing
+        cos_yaw, sin_yaw = np.cos(self.yaw), np.sin(self.yaw)
+        self.speed = cos_yaw * self.velocity[..., 0] + sin_yaw * self.velocity[..., 1]
+        active_env = ~np.all(self.done, axis=1)
+        self.time = self.time + dt * active_env
+        self.steps = self.steps + active_env
+        time = self.time[:, None]
+
+        # Phase 2: rules on the new snapshot. Project the car centre and four wheels at once.
+        rot = np.stack([np.stack([cos_yaw, -sin_yaw], -1), np.stack([sin_yaw, cos_yaw], -1)], -2)
+        wheels = position[:, :, None, :] + np.einsum("enij,wj->enwi", rot, self._wheels)
+        points = np.concatenate([position[:, :, None, :], wheels], axis=2)
+        s_all, d_all = track.project(points)
+        width_left, width_right = track.half_widths_at(s_all[..., 1:])
+        s = s_all[..., 0]
+        step_distance = race.wrap_arc(s - self.s, track.length) * racing
+        self.s = s
+        self.d = d_all[..., 0]
+        self.distance = prev_distance + step_distance
+        off_track = race.all_wheels_off(d_all[..., 1:], width_left, width_right) & racing
+
+        # Laps.
+        laps = race.count_laps(self.distance, self.lap_origin, track.length)
+        lap_completed = (laps > self.laps) & racing
+        finished_now = np.zeros((e, n), dtype=bool)
+        if lap_completed.any():
+            finished_now = self._complete_laps(lap_completed, laps, step_distance)
+
+        # Contacts, reversing and immobility.
+        a, b = self.world.pop_contacts()
+        if a.size:
+            crashed, collided, collision_events = race.judge_contacts(
+                a, b, e, n, self.num_obstacles, self.distance, racing)
+        else:
+            crashed = collided = np.zeros((e, n), dtype=bool)
+            collision_events = []
+        moved = np.hypot(position[..., 0] - prev_position[..., 0],
+                         position[..., 1] - prev_position[..., 1])
+        self.reverse_count = race.consecutive(self.reverse_count, (step_distance < 0) & racing)
+        self.immobile_count = race.consecutive(
+            self.immobile_count, (moved <= rules.immobilised_distance) & racing)
+        reversed_ = self.reverse_count >= rules.reversed_steps
+        immobilised = self.immobile_count >= rules.immobilised_steps
+        self.collisions += collided
+        self.crashes += crashed
+        self.off_tracks += off_track
+
+        # Overtakes and defences between cars racing before and after the step.
+        gap = race.pairwise_gap(self.distance)
+        still = racing & ~finished_now
+        eligible = still[:, :, None] & still[:, None, :]
+        passed = race.detect_overtakes(self._gap, gap, eligible, track.length)
+        self._pressure, self._faster, defended = race.update_pressure(
+            self._pressure, self._faster, gap, self.speed, eligible, passed, dt,
+            rules.defence_gap, rules.defence_time)
+        overtakes_now = passed.sum(axis=2)
+        overtaken_now = passed.sum(axis=1)
+        defences_now = defended.sum(axis=1)
+        self.overtakes += overtakes_now
+        self.overtaken += overtaken_now
+        self.defences += defences_now
+        passes = [] if not passed.any() else [tuple(x) for x in np.argwhere(passed).tolist()]
+
+        # Infractions: end the car's episode (training) or freeze it for a penalty (race).
+        crash_infraction = crashed & rules.crash_is_infraction
+        infraction = (off_track | crash_infraction | reversed_ | immobilised) & racing
+        infraction &= ~finished_now
+        penalised = np.zeros((e, n), dtype=bool)
+        if infraction.any():
+            if rules.mode == "training":
+                self.done |= infraction
+            else:
+                penalty = np.maximum.reduce([
+                    off_track * rules.off_track_penalty,
+                    crash_infraction * rules.crash_penalty,
+                    reversed_ * rules.reversed_penalty,
+                    immobilised * rules.immobilised_penalty])
+                penalised = infraction
+                self.penalties += infraction
+                self.penalty_time += penalty * infraction
+                self.frozen_until = np.where(infraction, time + penalty, self.frozen_until)
+                self.pending_replace |= infraction
+                # Off track, reversed or stuck: back to the last valid progress; a crash
+                # leaves the car on the surface, where it is.
+                back = off_track | reversed_ | immobilised
+                self.replace_distance = np.where(
+                    infraction, np.where(back, prev_distance, self.distance),
+                    self.replace_distance)
+            self.reverse_count *= ~infraction
+            self.immobile_count *= ~infraction
+
+        # Time limit and lap target.
+        terminated = self.done & ~self._parked
+        truncated = np.zeros((e, n), dtype=bool)
+        out_of_time = (self.time >= rules.time_limit) | (self.steps >= self.max_cycles)
+        if out_of_time.any():
+            truncated = out_of_time[:, None] & ~self.done
+        self.done |= truncated
+
+        # Put penalised cars back, park cars whose episode ended.
+        replaced = self.pending_replace & ~self.done & (self.frozen_until <= time)
+        newly_done = self.done & ~self._parked
+        if replaced.any() or newly_done.any():
+            if replaced.any():
+                self._replace(replaced)
+            if newly_done.any():
+                self._park_cars(newly_done)
+            self._sync_physics()
+        frozen_cars = self.frozen
+        if frozen_cars.any():
+            self.velocity = self.velocity * ~frozen_cars[..., None]
+            self.yaw_rate = self.yaw_rate * ~frozen_cars
+        self._update_ranks()
+        self._gap = race.pairwise_gap(self.distance)
+        return StepEvents(
+            terminated=terminated, truncated=truncated,
+            off_track=off_track, crashed=crashed, collided=collided, reversed=reversed_ & racing,
+            immobilised=immobilised & racing, penalised=penalised, replaced=replaced,
+            lap_completed=lap_completed, finished=finished_now, progress=step_distance,
+            overtakes=overtakes_now, overtaken=overtaken_now, defences=defences_now,
+            collisions=collision_events, passes=passes)
+
+    def _complete_laps(self, completed: BoolArray, laps: IntArray,
+                       step_distance: FloatArray) -> BoolArray:
+        """Record lap times for cars that completed a lap; return those that finished."""
+        track, rules = self.track, self.rules
+        line = self.lap_origin + laps * track.length
+        cross = race.crossing_time(self.time[:, None], self.dt, self.distance, step_distance,
+                                   line)
+        lap_time = cross - self.lap_start_time
+        valid = np.ones_like(completed)
+        if rules.max_resets_per_lap is not None:
+            valid = self.lap_resets <= rules.max_resets_per_lap
+        self.last_lap_time = np.where(completed, lap_time, self.last_lap_time)
+        best = np.where(completed & valid, np.minimum(self.best_lap_time, lap_time),
+                        self.best_lap_time)
+        self.best_lap_time = best
+        for env, car in np.argwhere(completed).tolist():
+            self.lap_times[env][car].append(float(lap_time[env, car]))
+            self.lap_valid[env][car].append(bool(valid[env, car]))
+        self.lap_start_time = np.where(completed, cross, self.lap_start_time)
+        self.lap_resets = self.lap_resets * ~completed
+        self.laps = np.where(completed, laps, self.laps)
+        finished = np.zeros_like(completed)
+        if rules.laps > 0:
+            finished = completed & (self.laps >= rules.laps)
+            self.finished |= finished
+            self.finish_time = np.where(finished, cross, self.finish_time)
+            self.done |= finished
+        return finished
+
+    def _replace(self, mask: BoolArray) -> None:
+        """Put frozen cars back on the nearest lane at their re-placement distance."""
+        track = self.track
+        env_idx, car_idx = np.nonzero(mask)
+        target = self.replace_distance[env_idx, car_idx]
+        lane = np.where(self.d[env_idx, car_idx] >= 0.0, 1.0, -1.0)
+        cand_dist, cand_lane = spawn.replacement_candidates(track, target, lane, 0.5, 4)
+        cand_s = np.mod(cand_dist, track.length)
+        cand_d = spawn.lane_offset(track, cand_s, cand_lane)
+        cand_pos = track.point_at(cand_s, cand_d)
+        # Distances to every other car of the same env copy and to its obstacles.
+        others = self.position[env_idx]
+        self_mask = np.arange(self.num_cars)[None, :] == car_idx[:, None]
+        gaps = np.linalg.norm(cand_pos[:, :, None, :] - others[:, None, :, :], axis=-1)
+        gaps = np.where(self_mask[:, None, :] | self.done[env_idx][:, None, :], np.inf, gaps)
+        clearance = gaps.min(axis=2)
+        if self.num_obstacles:
+            obstacles = self.obstacle_position[env_idx]
+            ogaps = np.linalg.norm(cand_pos[:, :, None, :] - obstacles[:, None, :, :], axis=-1)
+            clearance = np.minimum(clearance, ogaps.min(axis=2) - 0.25)
+        ok = clearance > REPLACE_CLEARANCE
+        choice = np.where(ok.any(axis=1), np.argmax(ok, axis=1), ok.shape[1] - 1)
+        rows = np.arange(len(env_idx))
+        s = cand_s[rows, choice]
+        d = cand_d[rows, choice]
+        self.position[env_idx, car_idx] = cand_pos[rows, choice]
+        self.yaw[env_idx, car_idx] = track.heading_at(s)
+        self.s[env_idx, car_idx] = s
+        self.d[env_idx, car_idx] = d
+        self.distance[env_idx, car_idx] = cand_dist[rows, choice]
+        self.velocity[env_idx, car_idx] = 0.0
+        self.yaw_rate[env_idx, car_idx] = 0.0
+        self.steer[env_idx, car_idx] = 0.0
+        self.speed[env_idx, car_idx] = 0.0
+        self.pending_replace[env_idx, car_idx] = False
+        self.resets[env_idx, car_idx] += 1
+        self.lap_resets[env_idx, car_idx] += 1
+
+    def _park_cars(self, mask: BoolArray) -> None:
+        """Move cars whose episode ended off the track, where nobody can hit them."""
+        env_idx, car_idx = np.nonzero(mask)
+        self.position[env_idx, car_idx] = self._park[car_idx]
+        self.velocity[env_idx, car_idx] = 0.0
+        self.yaw_rate[env_idx, car_idx] = 0.0
+        self.speed[env_idx, car_idx] = 0.0
+        self._parked[env_idx, car_idx] = True
+
+    def _update_ranks(self) -> None:
+        key = race.race_order_key(self.distance, self.finished, self.finish_time,
+                                  self.best_lap_time, self.rules.ranking)
+        self.rank = race.ranks(key)

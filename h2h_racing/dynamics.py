@@ -1,0 +1,165 @@
+"""Car dynamics: a dynamic single-track (bicycle) model with tyre slip, batched in numpy.
+
+The model is the classic linear-tyre single-track model (Rajamani, *Vehicle Dynamics and
+Control*, 2nd ed. 2012, sec. 2.3; the "ST" model of Althoff et al., *CommonRoad: Vehicle
+Models*, 2017) with a friction limit on each axle's lateral force. In the body frame, with
+forward speed v_x, lateral speed v_y, yaw rate r and front steering angle delta:
+
+    alpha_f = delta - (v_y + l_f r) / v_x          slip angle of the front axle
+    alpha_r =       - (v_y - l_r r) / v_x          slip angle of the rear axle
+    F_f = sat(C_f alpha_f, mu F_zf)                 lateral tyre forces, C = c_alpha * F_z
+    F_r = sat(C_r alpha_r, mu F_zr)                 sat(x, m) = min(max(x, -m), m)
+    m (dv_y/dt + v_x r) = F_f + F_r
+    I_z dr/dt           = l_f F_f - l_r F_r
+
+with static axle loads F_zf = m g l_r / L and F_zr = m g l_f / L. For a 1.5 kg car the
+lateral dynamics are stiff (time constants of about 10 ms at 1 m/s), so the lateral state is
+advanced with backward (implicit) Euler, which is stable at the env's 1/15 s step:
+(I - dt A) x' = x + dt b for the linear part. The axle forces evaluated at that solution
+are then saturated at mu F_z and the state is re-advanced with the saturated forces; when
+no axle saturates this reproduces the implicit solution exactly, and when one does, the car
+slides: cornering too fast runs wide (understeer, front saturated) or spins (rear).
+
+At low speed the slip angles are singular (division by v_x), so below about 0.6 m/s the
+state is blended into the kinematic bicycle model, r = v_x tan(delta) / L, v_y = l_r r,
+as CommonRoad's ST model switches to the kinematic model at low speed.
+
+The longitudinal speed follows a proportional speed controller with acceleration limits,
+as the real car's ESC tracks a commanded wheel speed. All functions work on flat arrays
+of any length (one entry per car, over all env copies); there is no loop over cars.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from h2h_racing.config import CarParams
+
+FloatArray = npt.NDArray[np.float64]
+
+GRAVITY = 9.81
+"""Standard gravity [m/s^2]."""
+LOW_SPEED = 0.2
+"""Below this forward speed [m/s] the kinematic model is used alone."""
+BLEND_SPEED = 0.4
+"""Width of the kinematic-to-dynamic blend above LOW_SPEED [m/s]."""
+
+
+class SingleTrackModel:
+    """Precomputed constants of the single-track model for one set of car parameters.
+
+    Args:
+        car: Car parameters (SI units).
+    """
+
+    def __init__(self, car: CarParams) -> None:
+        self.car = car
+        m, iz = car.mass, car.yaw_inertia
+        lf, lr, wb = car.cg_to_front, car.cg_to_rear, car.wheelbase
+        self.load_front = m * GRAVITY * lr / wb
+        self.load_rear = m * GRAVITY * lf / wb
+        cf = car.cornering_stiffness * self.load_front
+        cr = car.cornering_stiffness * self.load_rear
+        self.cf, self.cr = cf, cr
+        self.max_force_front = car.friction * self.load_front
+        self.max_force_rear = car.friction * self.load_rear
+        # Coefficients of (I - dt A) that multiply dt / u (u = forward speed).
+        self._k11 = (cf + cr) / m
+        self._k12 = (cf * lf - cr * lr) / m
+        self._k21 = (lf * cf - lr * cr) / iz
+        self._k22 = (lf * lf * cf + lr * lr * cr) / iz
+        self._b1 = cf / m
+        self._b2 = lf * cf / iz
+
+    def step(
+        self,
+        yaw: FloatArray,
+        velocity: FloatArray,
+        yaw_rate: FloatArray,
+        steer: FloatArray,
+        steer_command: FloatArray,
+        speed_command: FloatArray,
+        dt: float,
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Advance velocities, yaw rate and steering by one control step.
+
+        Args:
+            yaw: Heading of each car, shape (C,), radians.
+            velocity: World-frame velocity, shape (C, 2), m/s.
+            yaw_rate: Yaw rate, shape (C,), rad/s.
+            steer: Current front steering angle, shape (C,), radians (left positive).
+            steer_command: Commanded steering angle, shape (C,), radians, within +-max_steer.
+            speed_command: Commanded forward speed, shape (C,), m/s.
+            dt: Step length [s].
+
+        Returns:
+            ``(velocity, yaw_rate, steer)`` after the step: world-frame velocity (C, 2) to
+            hold during the step (rotated to the mid-step heading, so that the chord driven
+            during the step follows the arc), yaw rate (C,) and steering angle (C,).
+        """
+        car = self.car
+        cos_yaw = np.cos(yaw)
+        sin_yaw = np.sin(yaw)
+        vel_x = velocity[:, 0]
+        vel_y = velocity[:, 1]
+        vx = cos_yaw * vel_x + sin_yaw * vel_y
+        vy = cos_yaw * vel_y - sin_yaw * vel_x
+
+        # Steering servo with a rate limit.
+        max_delta = car.max_steer_rate * dt
+        steer = steer + np.minimum(np.maximum(steer_command - steer, -max_delta), max_delta)
+
+        # Speed controller: a_x = k (v_cmd - v_x), limited to [-brake, accel].
+        accel = np.minimum(np.maximum(car.speed_gain * (speed_command - vx), -car.max_brake),
+                           car.max_accel)
+        vx = vx + accel * dt
+
+        # Implicit Euler of the linear lateral dynamics: solve (I - dt A) x' = x + dt b.
+        p = dt / np.maximum(np.abs(vx), LOW_SPEED)
+        m11 = 1.0 + self._k11 * p
+        m12 = self._k12 * p + dt * vx
+        m21 = self._k21 * p
+        m22 = 1.0 + self._k22 * p
+        rhs1 = vy + (dt * self._b1) * steer
+        rhs2 = yaw_rate + (dt * self._b2) * steer
+        inv_det = 1.0 / (m11 * m22 - m12 * m21)
+        vy_lin = (rhs1 * m22 - m12 * rhs2) * inv_det
+        r_lin = (m11 * rhs2 - m21 * rhs1) * inv_det
+
+        # Axle forces at the implicit solution, saturated by the friction limit, then the
+        # state re-advanced with those forces (identical to x' when nothing saturates).
+        inv_u = p * (1.0 / dt)
+        force_f = self.cf * (steer - (vy_lin + car.cg_to_front * r_lin) * inv_u)
+        force_r = self.cr * (car.cg_to_rear * r_lin - vy_lin) * inv_u
+        force_f = np.minimum(np.maximum(force_f, -self.max_force_front), self.max_force_front)
+        force_r = np.minimum(np.maximum(force_r, -self.max_force_rear), self.max_force_rear)
+        r_dyn = yaw_rate + (dt / car.yaw_inertia) * (car.cg_to_front * force_f
+                                                    - car.cg_to_rear * force_r)
+        vy_dyn = vy + (dt / car.mass) * (force_f + force_r) - dt * vx * r_dyn
+
+        # Kinematic bicycle at low speed, blended linearly over [LOW_SPEED, LOW+BLEND].
+        r_kin = vx * np.tan(steer) * (1.0 / car.wheelbase)
+        weight = np.minimum(np.maximum((np.abs(vx) - LOW_SPEED) * (1.0 / BLEND_SPEED), 0.0), 1.0)
+        yaw_rate_new = r_kin + weight * (r_dyn - r_kin)
+        vy = car.cg_to_rear * r_kin + weight * (vy_dyn - car.cg_to_rear * r_kin)
+
+        # Back to the world frame at the mid-step heading.
+        mid = yaw + (0.5 * dt) * yaw_rate_new
+        cos_mid = np.cos(mid)
+        sin_mid = np.sin(mid)
+        out = np.empty_like(velocity)
+        out[:, 0] = cos_mid * vx - sin_mid * vy
+        out[:, 1] = sin_mid * vx + cos_mid * vy
+        return out, yaw_rate_new, steer
+
+    def steady_state_yaw_rate(self, speed: float, steer: float) -> float:
+        """Return the linear model's steady-state yaw rate [rad/s] (for tests and docs).
+
+        r_ss = v delta / (L + K_us v^2) with understeer gradient
+        K_us = m (l_r C_r - l_f C_f) / (L C_f C_r)  (Rajamani eq. 3.15, in rad per m/s^2).
+        """
+        car = self.car
+        k_us = car.mass * (car.cg_to_rear * self.cr - car.cg_to_front * self.cf) / (
+            car.wheelbase * self.cf * self.cr)
+        return speed * steer / (car.wheelbase + k_us * speed * speed)

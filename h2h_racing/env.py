@@ -1,0 +1,383 @@
+"""# h2h_racing_v0: head-to-head racing of 1/18-scale cars
+
+| | |
+|---|---|
+| Import | `import h2h_racing; env = h2h_racing.parallel_env(track="speedway", num_cars=2)` |
+| API | PettingZoo `ParallelEnv` (`h2h_racing.env(...)` gives the AEC view) |
+| Agents | `car_0` ... `car_{N-1}` (N = `num_cars`, 1 to 16) |
+| Action space (continuous) | `Box(-1, 1, (2,), float32)`: `[steer, speed]` |
+| Action space (discrete) | `Discrete(K)`: index into `discrete_actions` (steering deg, speed m/s) |
+| Observation space | `Box(-5, 5, (F,), float32)`, F = 19 + 4 x opponent_slots + 3 x obstacle_slots (27 + 6 by default) |
+| Step | 1/15 s of simulated time (DeepRacer's rate), 4 physics sub-steps |
+| Render modes | `rgb_array` (top-down spectator frame; observations never read it) |
+
+Several cars race on a DeepRacer-style track (no walls; a car is off track when all four
+wheels leave the surface). Cars are boxes of 0.32 x 0.20 m with a dynamic single-track
+model (tyre slip, friction limit); contacts between cars and with box obstacles are
+physical (pymunk), so cars bump, push and block one another.
+
+## Actions
+Continuous: `steer` in [-1, 1] maps linearly to [-30, 30] degrees (positive = left);
+`speed` in [-1, 1] maps linearly to [`min_speed`, `max_speed`] m/s (default 0.5 to 4).
+The speed is a command: a speed controller reaches it with the car's acceleration limits,
+as on the real car. Finite values outside [-1, 1] are clipped; NaN or inf raise
+`ValueError`. Discrete: an integer index into `discrete_actions`, a tuple of
+(steering angle in degrees, speed in m/s); out-of-range indices raise `ValueError`.
+
+## Observations
+A normalised state vector per car (see `h2h_racing.sensors.state` for the exact layout):
+speed, sideslip, yaw rate, steering, lateral offset, heading error, curvature look-ahead
+up to 5 m, track half-widths, race position, penalty flag, and for the nearest opponents
+and obstacles ahead their track-relative gap, lateral offset and relative speed.
+
+## Rewards
+The weighted sum of these terms (weights in `RewardConfig`; each weighted term is also in
+`infos[agent]["reward_terms"]`):
+
+| term | value | default weight |
+|---|---|---|
+| progress | metres of centre-line progress this step | 1.0 |
+| speed | forward speed while racing [m/s] | 0.0 |
+| off_track | 1 on the step the car goes off track | -5.0 |
+| crash | 1 when judged at fault in a contact (the car behind, or hitting an obstacle) | -5.0 |
+| overtake | cars passed on track minus times passed | 1.0 |
+| lap | 1 per completed lap | 0.0 |
+| time | 1 per step while racing | 0.0 |
+
+## Race rules, termination and truncation
+Rules are `RaceRules` (presets by `race_type`; `rules="training"` or `"race"`):
+- infractions: off track (all four wheels off), crash at fault, reversed (progress falling
+  for 15 steps), immobilised (not moving for 15 steps);
+- `rules="race"` (default): an infraction freezes the car for a penalty (5 s by default)
+  while the clock runs, then puts it back on the nearest lane at its last valid progress;
+- `rules="training"`: an infraction ends that car's episode (**terminated**);
+- a car that completes the lap target has finished (**terminated**); its car is parked
+  off the track;
+- the race time limit and `max_cycles` end the episode of every car still racing
+  (**truncated**).
+Finished and retired cars leave `env.agents` on the step that ends them.
+
+Presets: `head_to_head` (3 laps, total time, 5 s penalties, 180 s limit), `time_trial`
+(4 minutes, best valid lap, a lap with more than 3 resets is void), `object_avoidance`
+(head-to-head rules with 6 boxes on the lanes).
+
+## Info
+`infos[agent]` holds: `progress` (% of a lap since the episode start), `distance` (m from the
+start line), `lap`, `lap_times`, `last_lap_time`, `best_lap_time`, `rank`, `gap_to_leader`
+(m), `off_track`, `crashed`, `collided`, `penalised`, `frozen`, `finished`, `overtakes`,
+`overtaken`, `defences`, `resets`, `penalties`, `time` (simulated s), `reward_terms`.
+
+## Arguments
+```python
+h2h_racing.parallel_env(track="speedway", num_cars=2, race_type="head_to_head",
+                        rules=None, render_mode=None, max_cycles=10_000, **config)
+```
+`track`: a catalogue name (`h2h-racing tracks list`), a track file (.json, .npy, .csv) or
+a `Track`. `rules`: None (the race type's preset), `"race"`, `"training"` or a `RaceRules`.
+Every other keyword is a field of `EnvConfig` (e.g. `action_type="discrete"`,
+`num_obstacles=4`, `randomize_obstacles=True`, `grid="fixed"`, `reward=RewardConfig(...)`).
+`reset(seed, options)` accepts `options={"grid": [slot of car_0, slot of car_1, ...]}`.
+
+## Version history
+- v0: initial release.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from gymnasium import spaces
+from pettingzoo import ParallelEnv
+from pettingzoo.utils.conversions import parallel_to_aec
+
+from h2h_racing import rewards
+from h2h_racing.config import EnvConfig, RaceRules
+from h2h_racing.core import RaceCore
+from h2h_racing.sensors.state import OBS_BOUND, state_observation, state_size
+from h2h_racing.track import Track
+from h2h_racing.track_io import load_track
+
+
+def _resolve_rules(rules: Any, race_type: str) -> RaceRules | None:
+    if rules is None or isinstance(rules, RaceRules):
+        return rules
+    if isinstance(rules, str):
+        return RaceRules.preset(race_type, rules)
+    raise ValueError(f"rules must be None, 'race', 'training' or a RaceRules, got {rules!r}")
+
+
+class RacingEnv(ParallelEnv):
+    """Head-to-head racing as a PettingZoo ParallelEnv (see the module docstring).
+
+    Args:
+        track: Catalogue name, track file path or ``Track``.
+        num_cars: Number of cars.
+        race_type: ``"head_to_head"``, ``"time_trial"`` or ``"object_avoidance"``.
+        rules: None, ``"race"``, ``"training"`` or a ``RaceRules``.
+        render_mode: None or ``"rgb_array"``.
+        config: An ``EnvConfig``; when given, the other configuration arguments must not be.
+        **overrides: Further ``EnvConfig`` fields.
+    """
+
+    metadata = {
+        "name": "h2h_racing_v0",
+        "render_modes": ["rgb_array"],
+        "render_fps": 15,
+        "is_parallelizable": True,
+    }
+
+    def __init__(self, track: str | Track = "speedway", num_cars: int = 2,
+                 race_type: str = "head_to_head", rules: Any = None,
+                 render_mode: str | None = None, config: EnvConfig | None = None,
+                 **overrides: Any) -> None:
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise ValueError(f"render_mode must be None or one of "
+                             f"{self.metadata['render_modes']}, got {render_mode!r}")
+        if config is None:
+            valid = {f.name for f in dataclasses.fields(EnvConfig)}
+            unknown = sorted(set(overrides) - valid)
+            if unknown:
+                raise TypeError(f"unknown arguments {unknown}; valid EnvConfig fields are "
+                                f"{sorted(valid)}")
+            track_name = track.name if isinstance(track, Track) else str(track)
+            config = EnvConfig(track=track_name, num_cars=num_cars, race_type=race_type,
+                               rules=_resolve_rules(rules, race_type), **overrides)
+        elif overrides:
+            raise TypeError("pass either config or keyword overrides, not both")
+        self.config = config
+        self.track = track if isinstance(track, Track) else load_track(config.track)
+        self.render_mode = render_mode
+        self.core = RaceCore(config, self.track, num_envs=1)
+        self.possible_agents = [f"car_{i}" for i in range(config.num_cars)]
+        self.agents: list[str] = []
+        self._index = {agent: i for i, agent in enumerate(self.possible_agents)}
+        size = state_size(config.opponent_slots, config.obstacle_slots)
+        obs_space = spaces.Box(-OBS_BOUND, OBS_BOUND, (size,), np.float32)
+        if config.action_type == "continuous":
+            act_space: spaces.Space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+        else:
+            act_space = spaces.Discrete(len(config.discrete_actions))
+            table = np.array(config.discrete_actions, dtype=np.float64)
+            self._discrete_steer = np.radians(table[:, 0])
+            self._discrete_speed = table[:, 1]
+        # One space object per agent, built once: PettingZoo's tests require identity.
+        self._observation_spaces = {a: obs_space for a in self.possible_agents}
+        self._action_spaces = {a: act_space for a in self.possible_agents}
+        self._speed_scale = 0.5 * (config.max_speed - config.min_speed)
+        self._speed_mid = 0.5 * (config.max_speed + config.min_speed)
+        self._renderer: Any = None
+        self._reset_done = False
+
+    # ---------------------------------------------------------------- spaces
+    def observation_space(self, agent: str) -> spaces.Space:
+        """Return the observation space of ``agent`` (the same object on every call)."""
+        return self._observation_spaces[agent]
+
+    def action_space(self, agent: str) -> spaces.Space:
+        """Return the action space of ``agent`` (the same object on every call)."""
+        return self._action_spaces[agent]
+
+    @property
+    def max_cycles(self) -> int:
+        """Steps after which every car is truncated (may be changed between episodes)."""
+        return self.core.max_cycles
+
+    @max_cycles.setter
+    def max_cycles(self, value: int) -> None:
+        if not isinstance(value, int) or value < 1:
+            raise ValueError(f"max_cycles must be an int >= 1, got {value!r}")
+        self.core.max_cycles = value
+
+    # ---------------------------------------------------------------- API
+    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None,
+              ) -> tuple[dict[str, Any], dict[str, dict[str, Any]]]:
+        """Start a new race.
+
+        Args:
+            seed: Seeds the env's random generator (grid draw, obstacle randomisation);
+                None continues the current generator.
+            options: ``{"grid": [slot, ...]}`` puts car i in grid slot ``grid[i]``
+                (a permutation of 0..N-1); other keys are ignored.
+
+        Returns:
+            ``(observations, infos)`` for every agent.
+        """
+        slots = None
+        if options and "grid" in options:
+            slots = np.asarray(options["grid"], dtype=np.int64)
+            if slots.shape != (self.config.num_cars,):
+                raise ValueError(f"options['grid'] must list one slot per car "
+                                 f"({self.config.num_cars}), got {options['grid']!r}")
+        self.core.reset(seed=seed, slots=slots)
+        self.agents = self.possible_agents[:]
+        self._reset_done = True
+        obs = self._observations()
+        zero_terms = dict.fromkeys(self.config.reward.terms(), 0.0)
+        return obs, self._infos(self.agents, None, zero_terms_all=zero_terms)
+
+    def step(self, actions: dict[str, Any]) -> tuple[dict[str, Any], dict[str, float],
+                                                     dict[str, bool], dict[str, bool],
+                                                     dict[str, dict[str, Any]]]:
+        """Advance the race by one step (1/15 s).
+
+        Args:
+            actions: One action per live agent (``env.agents``).
+
+        Returns:
+            ``(observations, rewards, terminations, truncations, infos)`` keyed by the agents
+            that were live when the step started.
+
+        Raises:
+            RuntimeError: ``reset`` was not called, or the race is over.
+            ValueError: missing or unknown agents, wrong shapes, NaN/inf or bad indices.
+        """
+        if not self._reset_done:
+            raise RuntimeError("call reset() before step()")
+        agents = self.agents
+        if not agents:
+            raise RuntimeError("the race is over (env.agents is empty); call reset()")
+        steer, speed = self._parse_actions(actions, agents)
+        core = self.core
+        racing = core.racing
+        events = core.step(steer, speed)
+        terms = rewards.reward_terms(self.config.reward, events, core.speed, racing)
+        reward = rewards.total_reward(terms)[0].tolist()
+        obs = self._observations()
+        term = events.terminated[0].tolist()
+        trunc = events.truncated[0].tolist()
+        index = self._index
+        rewards_out = {a: reward[index[a]] for a in agents}
+        terminations = {a: term[index[a]] for a in agents}
+        truncations = {a: trunc[index[a]] for a in agents}
+        infos = self._infos(agents, events, terms=terms)
+        self.agents = [a for a in agents if not (terminations[a] or truncations[a])]
+        obs = {a: obs[a] for a in agents}
+        return obs, rewards_out, terminations, truncations, infos
+
+    def _parse_actions(self, actions: Any, agents: list[str],
+                       ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        if not isinstance(actions, dict):
+            raise ValueError(f"actions must be a dict keyed by agent, got "
+                             f"{type(actions).__name__}; live agents: {agents}")
+        if len(actions) != len(agents) or any(a not in actions for a in agents):
+            missing = [a for a in agents if a not in actions]
+            unknown = [a for a in actions if a not in self._index or a not in agents]
+            raise ValueError(f"actions must have exactly one entry per live agent {agents}; "
+                             f"missing {missing}, unknown or finished {unknown}")
+        n = self.config.num_cars
+        steer = np.zeros((1, n))
+        speed = np.zeros((1, n))
+        idx = [self._index[a] for a in agents]
+        if self.config.action_type == "continuous":
+            try:
+                values = np.array([actions[a] for a in agents], dtype=np.float64)
+            except (TypeError, ValueError) as exc:
+                raise ValueError(f"actions must be arrays of 2 numbers [steer, speed]: "
+                                 f"{ {a: actions[a] for a in agents} }") from exc
+            if values.shape != (len(agents), 2):
+                bad = {a: np.shape(actions[a]) for a in agents if np.shape(actions[a]) != (2,)}
+                raise ValueError(f"each action must have shape (2,) = [steer, speed]; "
+                                 f"got shapes {bad}")
+            if not np.isfinite(values).all():
+                bad = {a: actions[a] for a, row in zip(agents, values)
+                       if not np.isfinite(row).all()}
+                raise ValueError(f"actions must be finite; got NaN or inf for {bad}")
+            values = np.minimum(np.maximum(values, -1.0), 1.0)
+            steer[0, idx] = values[:, 0] * self.config.car.max_steer
+            speed[0, idx] = self._speed_mid + self._speed_scale * values[:, 1]
+        else:
+            count = len(self.config.discrete_actions)
+            chosen = []
+            for a in agents:
+                value = actions[a]
+                if (isinstance(value, (bool, np.bool_)) or not np.isscalar(value)
+                        or not float(value).is_integer() or not 0 <= int(value) < count):
+                    raise ValueError(f"action of {a} must be an integer index in "
+                                     f"[0, {count - 1}], got {value!r}")
+                chosen.append(int(value))
+            steer[0, idx] = self._discrete_steer[chosen]
+            speed[0, idx] = self._discrete_speed[chosen]
+        return steer, speed
+
+    def _observations(self) -> dict[str, npt.NDArray[np.float32]]:
+        obs = state_observation(self.core)[0]
+        return {a: obs[i] for i, a in enumerate(self.possible_agents)}
+
+    def _infos(self, agents: list[str], events: Any, terms: dict[str, Any] | None = None,
+               zero_terms_all: dict[str, float] | None = None) -> dict[str, dict[str, Any]]:
+        core = self.core
+        lists = {
+            "progress": core.episode_progress[0].tolist(),
+            "distance": core.distance[0].tolist(),
+            "lap": core.laps[0].tolist(),
+            "last_lap_time": core.last_lap_time[0].tolist(),
+            "best_lap_time": core.best_lap_time[0].tolist(),
+            "rank": core.rank[0].tolist(),
+            "gap_to_leader": (core.distance[0].max() - core.distance[0]).tolist(),
+            "frozen": core.frozen[0].tolist(),
+            "finished": core.finished[0].tolist(),
+            "overtakes": core.overtakes[0].tolist(),
+            "overtaken": core.overtaken[0].tolist(),
+            "defences": core.defences[0].tolist(),
+            "resets": core.resets[0].tolist(),
+            "penalties": core.penalties[0].tolist(),
+        }
+        if events is not None:
+            lists["off_track"] = events.off_track[0].tolist()
+            lists["crashed"] = events.crashed[0].tolist()
+            lists["collided"] = events.collided[0].tolist()
+            lists["penalised"] = events.penalised[0].tolist()
+        else:
+            false = [False] * self.config.num_cars
+            lists.update(off_track=false, crashed=false, collided=false, penalised=false)
+        time = float(core.time[0])
+        term_lists = {k: v[0].tolist() for k, v in terms.items()} if terms else None
+        lap_times = core.lap_times[0]
+        infos = {}
+        for a in agents:
+            i = self._index[a]
+            info = {key: values[i] for key, values in lists.items()}
+            info["lap_times"] = list(lap_times[i])
+            info["time"] = time
+            info["reward_terms"] = ({k: v[i] for k, v in term_lists.items()} if term_lists
+                                    else dict(zero_terms_all or {}))
+            infos[a] = info
+        return infos
+
+    def render(self) -> npt.NDArray[np.uint8] | None:
+        """Return a top-down spectator frame (H, W, 3) uint8 in ``rgb_array`` mode."""
+        if self.render_mode is None:
+            return None
+        if self._renderer is None:
+            from h2h_racing.render import SpectatorRenderer
+
+            self._renderer = SpectatorRenderer(self.track)
+        return self._renderer.draw(self.core, env_index=0)
+
+    def close(self) -> None:
+        """Release the renderer."""
+        self._renderer = None
+
+    def results(self) -> list[dict[str, Any]]:
+        """Return the race results so far, in finishing order (see ``h2h_racing.results``)."""
+        from h2h_racing.results import race_results
+
+        return race_results(self.core, env_index=0, agents=self.possible_agents)
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_renderer"] = None
+        return state
+
+
+def parallel_env(**kwargs: Any) -> RacingEnv:
+    """Create the ParallelEnv (see the module docstring for the arguments)."""
+    return RacingEnv(**kwargs)
+
+
+def env(**kwargs: Any) -> Any:
+    """Create the AEC view of the env (``parallel_to_aec(parallel_env(...))``)."""
+    return parallel_to_aec(parallel_env(**kwargs))

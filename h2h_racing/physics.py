@@ -1,0 +1,176 @@
+"""Contact physics: the only module that imports pymunk.
+
+One ``pymunk.Space`` holds every env copy of a batch (copies are placed far apart so they
+never touch), which is an order of magnitude faster than one Space per copy
+(docs/performance_notes.md). Car velocities come from the numpy dynamics, are written into
+pymunk in one batch call, pymunk integrates positions and resolves contacts over its
+sub-steps, and the state is read back in one batch call. Contacts are read from pymunk's
+arbiters, also in one batch call.
+
+Bodies are added in a fixed order (all cars, env-major, then all obstacles) and never
+removed, so the batch arrays keep that order. Obstacles are kinematic bodies with zero
+velocity: they cannot be pushed, and can be moved between episodes in the same batch call.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+import pymunk
+import pymunk.batch as pb
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+_STATE_FIELDS = (pb.BodyFields.POSITION | pb.BodyFields.ANGLE | pb.BodyFields.VELOCITY
+                 | pb.BodyFields.ANGULAR_VELOCITY)
+_VELOCITY_FIELDS = pb.BodyFields.VELOCITY | pb.BodyFields.ANGULAR_VELOCITY
+_EMPTY = np.zeros(0, dtype=np.int64)
+
+
+class PhysicsWorld:
+    """A pymunk Space with ``num_bodies_cars`` car boxes and ``num_obstacles`` obstacle boxes.
+
+    Args:
+        num_cars: Total number of cars over all env copies (C = E * N).
+        num_obstacles: Total number of obstacles over all env copies (O = E * K).
+        car_size: (length, width) of every car box [m].
+        car_mass: Mass of a car [kg].
+        car_inertia: Yaw moment of inertia of a car [kg m^2].
+        obstacle_size: (length, width) of every obstacle box [m].
+        friction: Coulomb friction coefficient of contacts.
+        elasticity: Restitution of contacts.
+    """
+
+    def __init__(
+        self,
+        num_cars: int,
+        num_obstacles: int,
+        car_size: tuple[float, float],
+        car_mass: float,
+        car_inertia: float,
+        obstacle_size: tuple[float, float],
+        friction: float,
+        elasticity: float,
+    ) -> None:
+        self.num_cars = num_cars
+        self.num_obstacles = num_obstacles
+        space = pymunk.Space(threaded=False)
+        space.gravity = (0.0, 0.0)
+        # pymunk's defaults are tuned for pixels: allow 1 mm of overlap, not 10 cm.
+        space.collision_slop = 0.001
+        space.iterations = 10
+        space.damping = 1.0
+        self.space = space
+        self._bodies: list[pymunk.Body] = []
+        half_l, half_w = 0.5 * car_size[0], 0.5 * car_size[1]
+        car_box = [(-half_l, -half_w), (half_l, -half_w), (half_l, half_w), (-half_l, half_w)]
+        for _ in range(num_cars):
+            body = pymunk.Body(car_mass, car_inertia)
+            shape = pymunk.Poly(body, car_box)
+            shape.friction = friction
+            shape.elasticity = elasticity
+            space.add(body, shape)
+            self._bodies.append(body)
+        half_l, half_w = 0.5 * obstacle_size[0], 0.5 * obstacle_size[1]
+        box = [(-half_l, -half_w), (half_l, -half_w), (half_l, half_w), (-half_l, half_w)]
+        for _ in range(num_obstacles):
+            body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+            shape = pymunk.Poly(body, box)
+            shape.friction = friction
+            shape.elasticity = elasticity
+            space.add(body, shape)
+            self._bodies.append(body)
+        total = num_cars + num_obstacles
+        ids = np.array([b.id for b in self._bodies], dtype=np.uint64)
+        self._index_of = {int(body_id): k for k, body_id in enumerate(ids)}
+        # Contacts are reported by a callback that runs only when two shapes start
+        # touching, so a step without new contacts pays nothing for contact detection.
+        self._begun: list[tuple[int, int]] = []
+        space.on_collision(begin=self._on_begin)
+        # Two buffers: pymunk grows (reallocates) the read buffer's own memory, while the
+        # write buffer wraps numpy memory, which pymunk must never reallocate.
+        self._read_buffer = pb.Buffer()
+        self._write_buffer = pb.Buffer()
+        self._write = np.zeros((total, 6), dtype=np.float64)
+        self._write_vel = np.zeros((total, 3), dtype=np.float64)
+        self._check_body_order(ids)
+
+    def _check_body_order(self, ids: npt.NDArray[np.uint64]) -> None:
+        """Verify that pymunk iterates bodies in insertion order (the batch layout relies on it)."""
+        buffer = pb.Buffer()
+        pb.get_space_bodies(self.space, pb.BodyFields.BODY_ID, buffer)
+        got = np.frombuffer(buffer.int_buf(), dtype=np.uint64)
+        assert np.array_equal(got, ids), "pymunk body iteration order differs from insertion"
+
+    def set_state(self, position: FloatArray, angle: FloatArray, velocity: FloatArray,
+                  angular_velocity: FloatArray) -> None:
+        """Teleport every body (cars then obstacles).
+
+        Args:
+            position: Shape (C + O, 2), metres.
+            angle: Shape (C + O,), radians.
+            velocity: Shape (C + O, 2), m/s.
+            angular_velocity: Shape (C + O,), rad/s.
+        """
+        write = self._write
+        write[:, 0:2] = position
+        write[:, 2] = angle
+        write[:, 3:5] = velocity
+        write[:, 5] = angular_velocity
+        self._write_buffer.set_float_buf(write.reshape(-1))
+        # Shapes of dynamic and kinematic bodies are re-indexed at the start of every
+        # pymunk step, so teleported bodies need no explicit re-index.
+        pb.set_space_bodies(self.space, _STATE_FIELDS, self._write_buffer)
+
+    def step(self, velocity: FloatArray, angular_velocity: FloatArray, dt: float,
+             substeps: int) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """Hold car velocities, run ``substeps`` pymunk steps, and read the state back.
+
+        Args:
+            velocity: World-frame car velocities, shape (C, 2), m/s.
+            angular_velocity: Car yaw rates, shape (C,), rad/s.
+            dt: Total step length [s], split evenly over the sub-steps.
+            substeps: Number of pymunk steps.
+
+        Returns:
+            ``(position (C, 2), angle (C,), velocity (C, 2), angular_velocity (C,))`` of the
+            cars after the step (views into a fresh array).
+        """
+        c = self.num_cars
+        write = self._write_vel
+        write[:c, 0:2] = velocity
+        write[:c, 2] = angular_velocity
+        self._write_buffer.set_float_buf(write.reshape(-1))
+        pb.set_space_bodies(self.space, _VELOCITY_FIELDS, self._write_buffer)
+        sub_dt = dt / substeps
+        space_step = self.space.step
+        for _ in range(substeps):
+            space_step(sub_dt)
+        return self.read_cars()
+
+    def read_cars(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """Read every car's position, angle, velocity and angular velocity."""
+        buffer = self._read_buffer
+        buffer.clear()
+        pb.get_space_bodies(self.space, _STATE_FIELDS, buffer)
+        data = np.frombuffer(buffer.float_buf(), dtype=np.float64).reshape(-1, 6)[
+            : self.num_cars].copy()
+        return data[:, 0:2], data[:, 2], data[:, 3:5], data[:, 5]
+
+    def _on_begin(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: object) -> None:
+        body_a, body_b = arbiter.bodies
+        self._begun.append((self._index_of[body_a.id], self._index_of[body_b.id]))
+
+    def pop_contacts(self) -> tuple[IntArray, IntArray]:
+        """Return and forget the pairs of bodies that started touching since the last call.
+
+        Returns:
+            ``(a, b)``: body indices (cars 0..C-1, then obstacles C..C+O-1), shape (P,)
+            each, in the order pymunk reported them (deterministic for a given Space).
+        """
+        if not self._begun:
+            return _EMPTY, _EMPTY
+        pairs = np.array(self._begun, dtype=np.int64)
+        self._begun.clear()
+        return pairs[:, 0], pairs[:, 1]

@@ -1,0 +1,1 @@
+"""Observations of the cars: the state vector (and, later, camera and lidar)."""

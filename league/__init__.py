@@ -1,0 +1,1 @@
+"""Training adapter, leagues, ratings and tournaments."""
