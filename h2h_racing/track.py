@@ -1,0 +1,783 @@
+"""Immutable track geometry: a closed centre line with per-vertex half-widths, and Frenet maps onto it.
+
+A :class:`Track` is a closed polyline (the centre line, in driving order, first vertex not repeated) with a
+width to the left and to the right of the direction of travel at every vertex. It answers the geometric
+questions the simulation core asks every step, vectorised over any leading shape:
+
+* :meth:`Track.project` maps world points to ``(s, d)``: the arc position ``s`` of the nearest point of the
+  centre *polyline* (as DeepRacer's Shapely ``LinearRing.project``) and the signed distance ``d`` to it,
+  positive on the left of the direction of travel.
+* :meth:`Track.point_at`, :meth:`Track.heading_at`, :meth:`Track.curvature_at`,
+  :meth:`Track.half_widths_at`, :meth:`Track.lane_point` go the other way.
+
+This module is pure numpy (no pymunk, cv2 or pettingzoo); loaders live in :mod:`h2h_racing.track_io`.
+
+**Frenet inverse.** The nearest-point map onto a polyline is not smooth: on the outside of a vertex a whole
+wedge of points projects onto the vertex, and on the inside ``s`` jumps by ``2|d|tan(turn/2)`` across the
+bisector. No continuous ``point_at`` can invert it everywhere. ``point_at`` uses the exact inverse wherever
+one exists, the *segment* normal, and makes it continuous by rotating the normal through the vertex
+bisector over a short blend zone of half-width ``h = min(BLEND_HALF_WIDTH, len/4)`` around each vertex
+(``heading_at`` uses the same field). Hence ``project(point_at(s, d)) == (s, d)`` to rounding error
+everywhere except within ``h + |d| tan(turn/2)`` of a vertex, where the error in ``s`` is at most about
+that distance. On a DeepRacer-scale track (15 cm spacing, 2 degrees of turn per vertex, ``|d| = 0.5 m``)
+this zone is about 1.8 cm around each vertex and the error there is below 2 cm.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from numba import njit
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
+
+CAR_WIDTH = 0.20
+"""Width of a car [m]; a track must be at least two car widths wide everywhere."""
+MIN_TOTAL_WIDTH = 2 * CAR_WIDTH
+"""Smallest allowed ``width_left + width_right`` [m]."""
+BLEND_HALF_WIDTH = 0.01
+"""Largest half-width [m] of the zone around a vertex over which the normal rotates between segments."""
+GRID_CELL = 0.1
+"""Preferred cell size [m] of the projection lookup grid."""
+GRID_MARGIN = 2.0
+"""Margin [m] of the lookup grid around the track bounds; points beyond it are answered exactly too."""
+GRID_MAX_CELLS = 200_000
+"""Cap on the number of grid cells; large (full-scale) circuits get coarser cells."""
+WINDOW_ARC = 0.4
+"""Arc length [m] each side of a cell's nearest segment searched when refining a query."""
+BORDER_TOLERANCE = 0.005
+"""Largest overlap [m] of an explicit (file-given) border crossing that is accepted as a drawing glitch."""
+
+_ALL = np.zeros(0, dtype=bool)  # an empty mask means "project every point"
+_CHUNK_ELEMENTS = 2_000_000  # size of the (cells x segments) blocks of the exact grid build / fallback
+
+
+def _ro(a: np.ndarray) -> np.ndarray:
+    """Return ``a`` flagged read-only (the array is owned by the track)."""
+    a.flags.writeable = False
+    return a
+
+
+def _as_xy(name: str, value: Any, where: str) -> FloatArray:
+    """Convert ``value`` to a float64 ``(M, 2)`` array or raise a ``ValueError`` that names ``where``."""
+    arr = np.array(value, dtype=np.float64)
+    if arr.ndim != 2 or arr.shape[1] != 2:
+        raise ValueError(f"{where}: expected {name} of shape (M, 2) [m], got shape {arr.shape}.")
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class Track:
+    """An immutable closed race track (DeepRacer scale, metres).
+
+    Construct it directly from arrays or through :func:`h2h_racing.track_io.load_track`. All arrays are
+    float64 copies flagged read-only. The constructor validates the geometry and raises ``ValueError``
+    naming the source, the problem, the vertex index and its coordinates.
+
+    Attributes:
+        centre: Centre-line vertices, shape (M, 2) [m], driving order, closed loop with the first vertex NOT
+            repeated. Duplicate consecutive vertices (zero-length segments) are allowed.
+        width_left: Distance from the centre to the left border at each vertex, shape (M,) [m]; a scalar is
+            broadcast.
+        width_right: Distance from the centre to the right border at each vertex, shape (M,) [m].
+        name: Short name (catalogue key or file stem).
+        description: Free text.
+        source: File the track came from, or ``'<memory>'``.
+        left_border: Left border, shape (M, 2) [m]; given by DeepRacer files, otherwise computed as
+            ``centre + n * width_left`` with ``n`` the vertex normal (mean of the adjacent segment normals).
+        right_border: Right border, shape (M, 2) [m], ``centre - n * width_right`` when computed.
+        waypoints: The rows as the source gave them, shape (K, 2) [m], driving order (DeepRacer's
+            ``params["waypoints"]``). Defaults to the centre vertices with the first repeated at the end.
+    """
+
+    centre: FloatArray = field(repr=False)
+    width_left: FloatArray = field(repr=False)
+    width_right: FloatArray = field(repr=False)
+    name: str = "track"
+    description: str = ""
+    source: str = "<memory>"
+    left_border: FloatArray | None = field(default=None, repr=False, kw_only=True)
+    right_border: FloatArray | None = field(default=None, repr=False, kw_only=True)
+    waypoints: FloatArray | None = field(default=None, repr=False, kw_only=True)
+    _geo: dict[str, Any] = field(init=False, repr=False, default_factory=dict)
+    _cache: dict[str, Any] = field(init=False, repr=False, default_factory=dict)
+
+    # ------------------------------------------------------------------ construction and validation
+
+    def __post_init__(self) -> None:
+        where = self._where
+        centre = _as_xy("centre", self.centre, where)
+        m = len(centre)
+        wl = self._as_widths("width_left", self.width_left, m)
+        wr = self._as_widths("width_right", self.width_right, m)
+        explicit = self.left_border is not None or self.right_border is not None
+        if explicit and (self.left_border is None or self.right_border is None):
+            raise ValueError(f"{where}: give both left_border and right_border, or neither (to compute them).")
+        lb = _as_xy("left_border", self.left_border, where) if explicit else None
+        rb = _as_xy("right_border", self.right_border, where) if explicit else None
+        for name, arr in (("left_border", lb), ("right_border", rb)):
+            if arr is not None and arr.shape != centre.shape:
+                raise ValueError(
+                    f"{where}: expected {name} of shape {centre.shape} (one row per centre vertex), "
+                    f"got {arr.shape}."
+                )
+        wp = None if self.waypoints is None else _as_xy("waypoints", self.waypoints, where)
+
+        for name, arr in (
+            ("centre", centre),
+            ("width_left", wl),
+            ("width_right", wr),
+            ("left_border", lb),
+            ("right_border", rb),
+            ("waypoints", wp),
+        ):
+            if arr is not None and not np.all(np.isfinite(arr)):
+                row = int(np.argwhere(~np.isfinite(arr.reshape(len(arr), -1)))[0, 0])
+                raise ValueError(
+                    f"{where}: {name} has a non-finite value (NaN or inf) in row {row}: {arr[row]}. "
+                    "All coordinates and widths must be finite numbers."
+                )
+        n_distinct = len(np.unique(centre, axis=0)) if m else 0
+        if n_distinct < 4:
+            raise ValueError(
+                f"{where}: the centre line needs at least 4 distinct vertices to form a closed loop, "
+                f"got {n_distinct} (of {m} rows)."
+            )
+        for name, w in (("width_left", wl), ("width_right", wr)):
+            if np.any(w <= 0):
+                i = int(np.argmax(w <= 0))
+                raise ValueError(
+                    f"{where}: {name} must be > 0 m at every vertex, got {w[i]:.6g} at vertex {i} "
+                    f"({centre[i, 0]:.4f}, {centre[i, 1]:.4f})."
+                )
+        total = wl + wr
+        if np.any(total < MIN_TOTAL_WIDTH):
+            i = int(np.argmin(total))
+            raise ValueError(
+                f"{where}: the track is {total[i]:.4f} m wide at vertex {i} "
+                f"({centre[i, 0]:.4f}, {centre[i, 1]:.4f}); it must be at least two car widths "
+                f"({MIN_TOTAL_WIDTH:.2f} m) everywhere."
+            )
+
+        geo = _centre_geometry(centre, where)
+        if lb is None or rb is None:
+            vn = geo["vertex_normal"]
+            lb = centre + vn * wl[:, None]
+            rb = centre - vn * wr[:, None]
+        if wp is None:
+            wp = np.vstack([centre, centre[:1]])
+
+        if not explicit:
+            _check_no_fold(centre, lb, "left border", where)
+            _check_no_fold(centre, rb, "right border", where)
+        _check_simple(centre, "centre line", where, tolerance=0.0)
+        # A computed border crosses itself where the radius of curvature is below the half-width. A border
+        # given by a file is accepted if its crossing overlaps by at most BORDER_TOLERANCE (a drawing glitch).
+        tol = BORDER_TOLERANCE if explicit else 0.0
+        _check_simple(lb, "left border", where, tolerance=tol)
+        _check_simple(rb, "right border", where, tolerance=tol)
+
+        for name, arr in (
+            ("centre", centre),
+            ("width_left", wl),
+            ("width_right", wr),
+            ("left_border", lb),
+            ("right_border", rb),
+            ("waypoints", wp),
+        ):
+            object.__setattr__(self, name, _ro(arr))
+        object.__setattr__(self, "_explicit_borders", explicit)
+        self._geo.update(geo)
+        self._build_fields()
+
+    @property
+    def _where(self) -> str:
+        return f"track {self.name!r} ({self.source})"
+
+    def _as_widths(self, name: str, value: Any, m: int) -> FloatArray:
+        arr = np.array(value, dtype=np.float64)
+        if arr.ndim == 0:
+            arr = np.full(m, float(arr))
+        if arr.shape != (m,):
+            raise ValueError(
+                f"{self._where}: expected {name} of shape ({m},) (one width per centre vertex) or a scalar, "
+                f"got shape {arr.shape}."
+            )
+        return arr
+
+    def _build_fields(self) -> None:
+        """Precompute the interpolation tables of the continuous fields (heading, centre, widths)."""
+        g = self._geo
+        keep: IntArray = g["keep"]
+        sc: FloatArray = g["vertex_s"][keep]
+        length = g["length"]
+        lc: FloatArray = g["seg_len"][g["seg_of_kept"]]
+        psi: FloatArray = g["psi"]  # unwrapped heading of each compressed segment
+        total = g["total_turn"]
+        # Blend zone: knots (s_v - h, psi_in) and (s_v + h, psi_out) around each distinct vertex v.
+        h = np.minimum(BLEND_HALF_WIDTH, 0.25 * np.minimum(lc, np.roll(lc, 1)))
+        psi_in = np.concatenate([[psi[-1] - total], psi[:-1]])
+        ks = np.stack([sc - h, sc + h], axis=1).ravel()
+        kp = np.stack([psi_in, psi], axis=1).ravel()
+        g["heading_knots"] = (
+            np.concatenate([ks - length, ks, ks + length]),
+            np.concatenate([kp - total, kp, kp + total]),
+        )
+        xs = np.append(sc, length)
+        g["interp_s"] = xs
+
+        def closed(v: np.ndarray) -> np.ndarray:
+            return np.append(v[keep], v[keep[0]])
+
+        g["cx"], g["cy"] = closed(self.centre[:, 0]), closed(self.centre[:, 1])
+        g["wl"], g["wr"] = closed(self.width_left), closed(self.width_right)
+        # Curvature: centred difference of the unwrapped heading field over +-w, w = 2 median spacings.
+        # On a circle of radius R sampled every l this gives (turn per vertex)/l = 1/R to O((l/R)^2).
+        w = 2.0 * float(np.median(lc))
+        s_v = self.vertex_s
+        kappa = (self._psi(s_v + w) - self._psi(s_v - w)) / (2.0 * w)
+        g["curvature_vertex"] = _ro(kappa)
+        g["kappa"] = closed(kappa)
+
+    # ------------------------------------------------------------------ pickling (drop the lazy grid)
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = dict(self.__dict__)
+        state["_cache"] = {}
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+
+    def __repr__(self) -> str:
+        return (
+            f"Track(name={self.name!r}, vertices={len(self.centre)}, length={self.length:.3f} m, "
+            f"width={self.min_width:.3f}..{float(self.width.max()):.3f} m, source={self.source!r})"
+        )
+
+    # ------------------------------------------------------------------ derived properties
+
+    @property
+    def length(self) -> float:
+        """Centre-line length [m], closing segment included."""
+        return self._geo["length"]
+
+    @property
+    def vertex_s(self) -> FloatArray:
+        """Arc position of each centre vertex, shape (M,) [m]; ``vertex_s[0] == 0``."""
+        return self._geo["vertex_s"]
+
+    @property
+    def width(self) -> FloatArray:
+        """Total width ``width_left + width_right`` at each vertex, shape (M,) [m]."""
+        if "width" not in self._cache:
+            self._cache["width"] = _ro(self.width_left + self.width_right)
+        return self._cache["width"]
+
+    @property
+    def min_width(self) -> float:
+        """Smallest total width [m]."""
+        return float(self.width.min())
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """Bounding box ``(xmin, ymin, xmax, ymax)`` [m] of both borders."""
+        pts = np.vstack([self.left_border, self.right_border, self.centre])
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
+
+    @property
+    def is_ccw(self) -> bool:
+        """Whether the centre line runs counter-clockwise (positive signed area)."""
+        return self._geo["area"] > 0
+
+    @property
+    def left_lane(self) -> FloatArray:
+        """Mid-line between the centre and the left border, shape (M, 2) [m] (DeepRacer's lane)."""
+        if "left_lane" not in self._cache:
+            self._cache["left_lane"] = _ro(0.5 * (self.centre + self.left_border))
+        return self._cache["left_lane"]
+
+    @property
+    def right_lane(self) -> FloatArray:
+        """Mid-line between the centre and the right border, shape (M, 2) [m]."""
+        if "right_lane" not in self._cache:
+            self._cache["right_lane"] = _ro(0.5 * (self.centre + self.right_border))
+        return self._cache["right_lane"]
+
+    @property
+    def curvature_vertex(self) -> FloatArray:
+        """Smoothed signed curvature at each vertex, shape (M,) [1/m], positive turning left."""
+        return self._geo["curvature_vertex"]
+
+    # ------------------------------------------------------------------ continuous fields along s
+
+    def _psi(self, s: FloatArray) -> FloatArray:
+        """Unwrapped heading [rad] at arc positions ``s`` in [-L, 2L)."""
+        ks, kp = self._geo["heading_knots"]
+        return np.interp(s, ks, kp)
+
+    def _wrap_s(self, s: Any) -> FloatArray:
+        return np.remainder(np.asarray(s, dtype=np.float64), self.length)
+
+    def heading_at(self, s: Any) -> FloatArray:
+        """Return the direction of travel at arc positions ``s``.
+
+        The heading is the segment direction, rotated linearly through the vertex bisector within
+        ``BLEND_HALF_WIDTH`` of each vertex, so it has no jumps (other than the wrap at +-pi).
+
+        Args:
+            s: Arc positions, any shape (...) [m]; wrapped modulo ``length``.
+
+        Returns:
+            Heading, shape (...) [rad] in [-pi, pi), 0 along +x, counter-clockwise positive.
+        """
+        psi = self._psi(self._wrap_s(s))
+        return psi - 2.0 * np.pi * np.floor((psi + np.pi) / (2.0 * np.pi))
+
+    def point_at(self, s: Any, d: Any = 0.0) -> FloatArray:
+        """Return the world point at arc position ``s`` and signed offset ``d``.
+
+        ``centre(s) + d * normal(s)`` with ``centre(s)`` on the polyline and ``normal(s)`` the left normal of
+        :meth:`heading_at` (see the module docstring for why this inverts :meth:`project`).
+
+        Args:
+            s: Arc positions, shape (...) [m]; wrapped modulo ``length``.
+            d: Signed offsets, broadcastable with ``s`` [m], positive to the left.
+
+        Returns:
+            Points, shape (..., 2) [m].
+        """
+        g = self._geo
+        sw = self._wrap_s(s)
+        psi = self._psi(sw)
+        x = np.interp(sw, g["interp_s"], g["cx"]) - d * np.sin(psi)
+        y = np.interp(sw, g["interp_s"], g["cy"]) + d * np.cos(psi)
+        return np.stack(np.broadcast_arrays(x, y), axis=-1)
+
+    def curvature_at(self, s: Any) -> FloatArray:
+        """Return the signed curvature at arc positions ``s`` [1/m], positive turning left.
+
+        Per-vertex values are a centred difference of the heading over +-2 median segment lengths,
+        interpolated linearly in ``s``.
+
+        Args:
+            s: Arc positions, shape (...) [m]; wrapped modulo ``length``.
+
+        Returns:
+            Curvature, shape (...) [1/m].
+        """
+        g = self._geo
+        return np.interp(self._wrap_s(s), g["interp_s"], g["kappa"])
+
+    def half_widths_at(self, s: Any) -> tuple[FloatArray, FloatArray]:
+        """Return the left and right widths at arc positions ``s``, interpolated linearly between vertices.
+
+        Args:
+            s: Arc positions, shape (...) [m]; wrapped modulo ``length``.
+
+        Returns:
+            ``(left, right)``, each shape (...) [m], distances from the centre to each border.
+        """
+        g = self._geo
+        sw = self._wrap_s(s)
+        return np.interp(sw, g["interp_s"], g["wl"]), np.interp(sw, g["interp_s"], g["wr"])
+
+    def lane_point(self, s: Any, lane: Any) -> FloatArray:
+        """Return the point of a DeepRacer lane (half-way between the centre and a border).
+
+        Args:
+            s: Arc positions, shape (...) [m].
+            lane: +1 for the left lane, -1 for the right lane; broadcastable with ``s``.
+
+        Returns:
+            Points, shape (..., 2) [m].
+
+        Raises:
+            ValueError: If ``lane`` holds anything other than +1 or -1.
+        """
+        lane_arr = np.asarray(lane)
+        if not np.all((lane_arr == 1) | (lane_arr == -1)):
+            raise ValueError(f"Expected lane = +1 (left) or -1 (right), got {lane!r}.")
+        left, right = self.half_widths_at(s)
+        d = 0.5 * np.where(lane_arr > 0, left, -right)
+        return self.point_at(s, d)
+
+    # ------------------------------------------------------------------ projection
+
+    def project(self, points: Any, where: Any = None) -> tuple[FloatArray, FloatArray]:
+        """Project world points onto the centre polyline.
+
+        Exact nearest point of the polyline (closing segment included; ties go to the lower segment in the
+        search window). A lazily built grid gives each point a window of candidate segments; a per-cell
+        certificate proves the window holds the nearest segment, and the rare uncertified points (far from
+        the track, or near the medial axis between two distant parts of it) are solved by brute force.
+
+        Args:
+            points: World points, shape (..., 2) [m].
+            where: Optional boolean mask, shape (...): points where it is False are skipped and get
+                ``s = d = 0`` (the simulation core skips parked cars this way).
+
+        Returns:
+            ``(s, d)``, each shape (...): ``s`` [m] in [0, length) the arc position of the nearest point, and
+            ``d`` [m] the signed distance to it, positive on the left of the direction of travel.
+        """
+        q = np.asarray(points, dtype=np.float64)
+        lead = q.shape[:-1]
+        if q.shape[-1:] != (2,):
+            raise ValueError(f"Expected points of shape (..., 2) [m], got shape {q.shape}.")
+        q = np.ascontiguousarray(q.reshape(-1, 2))
+        p = self._cache.get("proj") or self._build_projector()
+        s = np.empty(len(q))
+        d = np.empty(len(q))
+        mask = _ALL if where is None else np.broadcast_to(np.asarray(where, dtype=bool), lead).reshape(-1)
+        project_kernel(q, mask, p.origin, p.inv_cell, p.hi, p.ny, p.start, p.cert, p.tab, p.window,
+                        p.tab_full, p.length, s, d)
+        return s.reshape(lead), d.reshape(lead)
+
+    def on_track(self, points: Any) -> npt.NDArray[np.bool_]:
+        """Return whether each point lies between the borders: ``-width_right(s) <= d <= width_left(s)``.
+
+        Args:
+            points: World points, shape (..., 2) [m].
+
+        Returns:
+            Boolean array, shape (...).
+        """
+        s, d = self.project(points)
+        left, right = self.half_widths_at(s)
+        return (d >= -right) & (d <= left)
+
+    def projector(self) -> Projector:
+        """Return the projection lookup tables (built once, lazily) for compiled kernels."""
+        return self._cache.get("proj") or self._build_projector()
+
+    def _build_projector(self) -> Projector:
+        proj = Projector.build(self)
+        self._cache["proj"] = proj
+        return proj
+
+    # ------------------------------------------------------------------ transforms
+
+    def reversed(self) -> Track:
+        """Return the same circuit driven the other way round.
+
+        The start vertex stays first (as DeepRacer's reversed waypoint list starts on the same start line);
+        the other vertices are reversed, left and right widths and borders are swapped, and the waypoints are
+        reversed.
+        """
+        order = np.concatenate([[0], np.arange(len(self.centre) - 1, 0, -1)])
+        return Track(
+            self.centre[order],
+            self.width_right[order],
+            self.width_left[order],
+            name=self.name,
+            description=self.description,
+            source=self.source,
+            left_border=self.right_border[order] if self._explicit_borders else None,
+            right_border=self.left_border[order] if self._explicit_borders else None,
+            waypoints=self.waypoints[::-1],
+        )
+
+
+# ---------------------------------------------------------------------- geometry helpers
+
+
+def _centre_geometry(centre: FloatArray, where: str) -> dict[str, Any]:
+    """Segment lengths, arc positions, unwrapped headings and vertex normals of a closed polyline.
+
+    Zero-length segments (duplicate consecutive vertices) are skipped when defining headings and normals:
+    the distinct vertices ("kept", the first of each run of duplicates) form the compressed polyline.
+    """
+    m = len(centre)
+    seg = np.roll(centre, -1, axis=0) - centre
+    seg_len = np.hypot(seg[:, 0], seg[:, 1])
+    vertex_s = np.concatenate([[0.0], np.cumsum(seg_len[:-1])])
+    length = float(seg_len.sum())
+    # Vertex i is kept when the segment arriving at it has non-zero length.
+    keep = np.flatnonzero(np.roll(seg_len, 1) > 0)
+    # The compressed segment leaving kept vertex v starts at it and runs to the next kept vertex; its first
+    # original segment is the non-zero one leaving the last duplicate of v.
+    nxt = np.roll(keep, -1)
+    seg_of_kept = (nxt - 1) % m
+    cseg = centre[nxt] - centre[keep]
+    ang = np.arctan2(cseg[:, 1], cseg[:, 0])
+    turn = np.diff(ang)
+    turn = (turn + np.pi) % (2 * np.pi) - np.pi
+    psi = np.concatenate([[ang[0]], ang[0] + np.cumsum(turn)])
+    closing = (ang[0] - ang[-1] + np.pi) % (2 * np.pi) - np.pi
+    total = float(psi[-1] - psi[0] + closing)
+
+    # Unit tangent of every original segment (a zero-length one borrows the compressed segment it lies in,
+    # which gives project() a sign for d there).
+    tangent = np.stack([np.cos(ang), np.sin(ang)], axis=1)
+    owner = np.searchsorted(keep, np.arange(m), side="right") - 1  # kept vertex at or before each vertex
+    seg_tangent = tangent[owner % len(keep)]
+    # Vertex normal = mean of the incoming and outgoing segment normals (normalised).
+    seg_normal = np.stack([-tangent[:, 1], tangent[:, 0]], axis=1)
+    nsum = seg_normal + np.roll(seg_normal, 1, axis=0)
+    nlen = np.hypot(nsum[:, 0], nsum[:, 1])
+    if np.any(nlen < 1e-9):
+        v = int(keep[np.argmax(nlen < 1e-9)])
+        raise ValueError(
+            f"{where}: the centre line reverses direction (a 180 degree spike) at vertex {v} "
+            f"({centre[v, 0]:.4f}, {centre[v, 1]:.4f}); remove the spike."
+        )
+    vertex_normal = (nsum / nlen[:, None])[owner % len(keep)]
+    x, y = centre[:, 0], centre[:, 1]
+    area = 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+    return {
+        "seg_len": seg_len,
+        "vertex_s": _ro(vertex_s),
+        "length": length,
+        "keep": keep,
+        "seg_of_kept": seg_of_kept,
+        "psi": psi,
+        "total_turn": total,
+        "seg_tangent": seg_tangent,
+        "vertex_normal": vertex_normal,
+        "area": area,
+    }
+
+
+def _check_no_fold(centre: FloatArray, border: FloatArray, what: str, where: str) -> None:
+    """Raise ``ValueError`` where a computed border runs backwards relative to the centre line.
+
+    Offsetting a curve of radius ``r`` by ``w > r`` towards its centre reverses the offset curve (a cusp or an
+    inverted loop, which need not cross itself, e.g. a circle of radius 0.5 offset by 0.6 is a circle of
+    radius 0.1): a border segment whose direction opposes its centre segment (negative dot product) shows it.
+    """
+    dc = np.roll(centre, -1, axis=0) - centre
+    db = np.roll(border, -1, axis=0) - border
+    bad = np.sum(dc * db, axis=1) < 0
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise ValueError(
+            f"{where}: the {what} folds back at vertex {i} ({centre[i, 0]:.4f}, {centre[i, 1]:.4f}): the radius of "
+            "curvature there is smaller than the half-width. Widen the corner or narrow the track there."
+        )
+
+
+def _check_simple(poly: FloatArray, what: str, where: str, tolerance: float) -> None:
+    """Raise ``ValueError`` if the closed polyline ``poly`` crosses or touches itself.
+
+    Vectorised segment-segment test over all pairs of non-adjacent segments (chunked), after dropping
+    zero-length segments. Two segments meet iff each one's endpoints are not strictly on the same side of
+    the other (orientation signs) and their bounding boxes overlap (which settles the collinear case).
+    With ``tolerance > 0`` a crossing is ignored when the smaller of the four endpoint-to-other-segment
+    distances is at most ``tolerance`` (a crossing that barely overlaps).
+    """
+    seg_len = np.hypot(*(np.roll(poly, -1, axis=0) - poly).T)
+    idx = np.flatnonzero(np.roll(seg_len, 1) > 0)  # distinct vertices
+    q = poly[idx]
+    n = len(q)
+    if n < 4:
+        return
+    a, b = q, np.roll(q, -1, axis=0)
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+
+    def orient(p: FloatArray, r: FloatArray, t: FloatArray) -> FloatArray:
+        return (r[..., 0] - p[..., 0]) * (t[..., 1] - p[..., 1]) - (r[..., 1] - p[..., 1]) * (t[..., 0] - p[..., 0])
+
+    step = max(1, _CHUNK_ELEMENTS // (8 * n))
+    jj = np.arange(n)
+    for i0 in range(0, n, step):
+        ii = np.arange(i0, min(n, i0 + step))
+        ai, bi = a[ii, None, :], b[ii, None, :]
+        aj, bj = a[None], b[None]
+        o1, o2 = orient(ai, bi, aj), orient(ai, bi, bj)
+        o3, o4 = orient(aj, bj, ai), orient(aj, bj, bi)
+        hit = (o1 * o2 <= 0) & (o3 * o4 <= 0)
+        hit &= np.all((lo[ii, None] <= hi[None]) & (lo[None] <= hi[ii, None]), axis=-1)
+        # Only pairs j > i + 1, and not (first, last), which share a vertex.
+        hit &= jj[None, :] > ii[:, None] + 1
+        hit &= ~((ii[:, None] == 0) & (jj[None, :] == n - 1))
+        if tolerance > 0 and hit.any():
+            pi, pj = np.nonzero(hit)
+            depth = _crossing_depth(a[ii[pi]], b[ii[pi]], a[pj], b[pj])
+            hit[pi[depth <= tolerance], pj[depth <= tolerance]] = False
+        if hit.any():
+            row, j = (int(v) for v in np.argwhere(hit)[0])
+            i = int(ii[row])
+            vi, vj = int(idx[i]), int(idx[j])
+            pa, pb, pc, pd = a[i], b[i], a[j], b[j]
+            den = (pb[0] - pa[0]) * (pd[1] - pc[1]) - (pb[1] - pa[1]) * (pd[0] - pc[0])
+            if den != 0:
+                u = ((pc[0] - pa[0]) * (pd[1] - pc[1]) - (pc[1] - pa[1]) * (pd[0] - pc[0])) / den
+                px, py = pa + u * (pb - pa)
+            else:
+                px, py = pc
+            hint = (
+                " A computed border crosses itself where the radius of curvature is smaller than the "
+                "half-width: widen the corner or narrow the track there."
+                if what != "centre line"
+                else " The centre line must be a simple closed loop."
+            )
+            raise ValueError(
+                f"{where}: the {what} crosses itself near ({px:.4f}, {py:.4f}): the segment from vertex {vi} "
+                f"({pa[0]:.4f}, {pa[1]:.4f}) meets the segment from vertex {vj} ({pc[0]:.4f}, {pc[1]:.4f})."
+                f"{hint}"
+            )
+
+
+def _crossing_depth(a: FloatArray, b: FloatArray, c: FloatArray, d: FloatArray) -> FloatArray:
+    """Smallest distance from an endpoint of one segment to the other segment, for pairs of segments."""
+
+    def point_seg(p: FloatArray, s0: FloatArray, s1: FloatArray) -> FloatArray:
+        v = s1 - s0
+        den = np.maximum(np.sum(v * v, axis=-1), 1e-300)
+        t = np.minimum(np.maximum(np.sum((p - s0) * v, axis=-1) / den, 0.0), 1.0)
+        e = p - s0 - t[:, None] * v
+        return np.hypot(e[:, 0], e[:, 1])
+
+    return np.minimum.reduce([point_seg(a, c, d), point_seg(b, c, d), point_seg(c, a, b), point_seg(d, a, b)])
+
+
+@dataclass(frozen=True)
+class Projector:
+    """Lookup grid for :meth:`Track.project` (built once per track, lazily)."""
+
+    origin: FloatArray  # (2,) world position of the grid corner [m]
+    inv_cell: float  # 1 / cell size [1/m]
+    hi: FloatArray  # (2,) largest cell index per axis, as float for clamping
+    ny: int  # flat cell index = ix * ny + iy
+    start: IntArray  # (cells,) first row of the candidate window in ``tab``
+    cert: FloatArray  # (cells,) distance below which the window's answer is certified exact [m]
+    window: int  # 2K + 1 segments searched per query: rows start .. start + 2K of ``tab``
+    tab: npt.NDArray[np.complex128]  # (M + 2K, 5) segment table, wrapped by K rows each side
+    tab_full: npt.NDArray[np.complex128]  # (M, 5)
+    length: float
+
+    @staticmethod
+    def build(track: Track) -> Projector:
+        g = track._geo
+        c = track.centre
+        m = len(c)
+        seg = np.roll(c, -1, axis=0) - c
+        seg_len = g["seg_len"]
+        inv_l2 = np.divide(1.0, seg_len**2, out=np.zeros(m), where=seg_len > 0)
+        zc = c[:, 0] + 1j * c[:, 1]
+        dz = seg[:, 0] + 1j * seg[:, 1]
+        tz = g["seg_tangent"][:, 0] + 1j * g["seg_tangent"][:, 1]
+        full = np.stack([zc, dz, np.conj(dz) * inv_l2, np.conj(tz), g["vertex_s"] + 1j * seg_len], axis=1)
+
+        xmin, ymin, xmax, ymax = track.bounds
+        area = (xmax - xmin + 2 * GRID_MARGIN) * (ymax - ymin + 2 * GRID_MARGIN)
+        cell = max(GRID_CELL, math.sqrt(area / GRID_MAX_CELLS))
+        nx = int(math.ceil((xmax - xmin + 2 * GRID_MARGIN) / cell))
+        ny = int(math.ceil((ymax - ymin + 2 * GRID_MARGIN) / cell))
+        origin = np.array([xmin - GRID_MARGIN, ymin - GRID_MARGIN])
+
+        # Window of +-K segments covering at least `arc` of arc length each side of every segment.
+        arc = max(WINDOW_ARC, 4.0 * cell)
+        cum = np.concatenate([[0.0], np.cumsum(np.tile(seg_len, 3))])
+        # For every start segment i (in the middle copy), the number of segments needed to cover `arc`.
+        i_mid = np.arange(m, 2 * m)
+        ahead = np.searchsorted(cum, cum[i_mid + 1] + arc, side="left") - (i_mid + 1)
+        behind = i_mid - np.searchsorted(cum, cum[i_mid] - arc, side="right") + 1
+        k = int(min(max(ahead.max(), behind.max(), 1), m // 2))
+        ext = np.arange(-k, m + k) % m
+        tab = full[ext]
+        # Exact nearest segment of every cell centre, and the distance to the nearest segment OUTSIDE the
+        # window around it. A query q in the cell is within r = half-diagonal of the centre, so every
+        # outside segment is at least (outside distance - r) from q: if the window's best is below that,
+        # it is the true nearest.
+        gx = origin[0] + (np.arange(nx) + 0.5) * cell
+        gy = origin[1] + (np.arange(ny) + 0.5) * cell
+        centres = (gx[:, None] + 1j * gy[None, :]).ravel()
+        nearest = np.empty(len(centres), dtype=np.intp)
+        outside = np.empty(len(centres))
+        step = max(1, _CHUNK_ELEMENTS // m)
+        seg_ids = np.arange(m)
+        for a in range(0, len(centres), step):
+            zz = centres[a : a + step, None]
+            w = zz - zc[None, :]
+            t = np.clip((w * full[None, :, 2]).real, 0.0, 1.0)
+            dist = np.abs(w - t * dz[None, :])
+            near = dist.argmin(axis=1)
+            nearest[a : a + step] = near
+            offset = (seg_ids[None, :] - near[:, None]) % m
+            in_window = (offset <= k) | (offset >= m - k)
+            dist[in_window] = np.inf
+            outside[a : a + step] = dist.min(axis=1)
+        cert = outside - (cell * math.sqrt(0.5) + 1e-9)
+        edge = np.zeros((nx, ny), dtype=bool)
+        edge[[0, -1], :] = True
+        edge[:, [0, -1]] = True
+        # Points beyond the grid are clamped into edge cells, where the half-diagonal bound does not hold.
+        cert[edge.ravel()] = -1.0
+        return Projector(
+            origin=origin,
+            inv_cell=1.0 / cell,
+            hi=np.array([nx - 1, ny - 1], dtype=np.float64),
+            ny=ny,
+            start=nearest,
+            cert=cert,
+            window=2 * k + 1,
+            tab=tab,
+            tab_full=full,
+            length=g["length"],
+        )
+
+
+@njit(cache=True)
+def _segment_distance(z, row):  # pragma: no cover
+    """Distance from complex point ``z`` to segment ``row = (A, D, conj(D)/|D|^2, ...)``.
+
+    Points and vectors are complex numbers ``x + iy``: for a segment ``A + tD`` the foot is at
+    ``t = clamp(Re((z - A) conj(D)) / |D|^2, 0, 1)``; a zero-length segment stores
+    ``conj(D)/|D|^2 = 0``, so ``t = 0`` and the distance is to ``A``.
+    """
+    w = z - row[0]
+    t = min(max((w * row[2]).real, 0.0), 1.0)
+    e = w - t * row[1]
+    return abs(e), t, e
+
+
+@njit(cache=True)
+def project_kernel(q, mask, origin, inv_cell, hi, ny, start, cert, tab, window, tab_full, length,
+                    out_s, out_d):  # pragma: no cover
+    """Exact nearest point of the centre polyline for each point of ``q`` (P, 2).
+
+    The grid cell of a point gives a window of ``window`` candidate segments (rows
+    ``start[cell] ..`` of ``tab``); when the best distance in the window exceeds the cell's
+    certificate, the window might miss the nearest segment and every segment is searched.
+    """
+    everything = mask.shape[0] == 0
+    for i in range(q.shape[0]):
+        if not everything and not mask[i]:
+            out_s[i] = 0.0
+            out_d[i] = 0.0
+            continue
+        x = q[i, 0]
+        y = q[i, 1]
+        z = complex(x, y)
+        ix = int(min(max((x - origin[0]) * inv_cell, 0.0), hi[0]))
+        iy = int(min(max((y - origin[1]) * inv_cell, 0.0), hi[1]))
+        cell = ix * ny + iy
+        first = start[cell]
+        best = np.inf
+        best_row = first
+        best_t = 0.0
+        best_e = 0j
+        for r in range(first, first + window):
+            dist, t, e = _segment_distance(z, tab[r])
+            if dist < best:
+                best, best_row, best_t, best_e = dist, r, t, e
+        row = tab[best_row]
+        if best > cert[cell]:
+            best = np.inf
+            for r in range(tab_full.shape[0]):
+                dist, t, e = _segment_distance(z, tab_full[r])
+                if dist < best:
+                    best, best_row, best_t, best_e = dist, r, t, e
+            row = tab_full[best_row]
+        s = row[4].real + best_t * row[4].imag
+        # s0 + t * len reaches ``length`` only at the very end of the closing segment.
+        out_s[i] = 0.0 if s >= length else s
+        out_d[i] = math.copysign(best, (best_e * row[3]).imag)

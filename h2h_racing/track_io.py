@@ -1,0 +1,239 @@
+"""Track loaders and writers: the JSON catalogue, DeepRacer ``.npy`` route files and centre-line CSV files.
+
+* Catalogue: ``tracks/<name>.json`` in the repository (``h2h_racing/catalogue/`` in an installed wheel),
+  format ``"h2h-racing-track/1"`` (see :func:`save_track`).
+* DeepRacer: ``(N, 6)`` float64 arrays ``[cx, cy, inner_x, inner_y, outer_x, outer_y]`` [m]
+  (aws-deepracer-community/deepracer-simapp ``bundle/routes``); every row is kept as ``waypoints``.
+* Centre-line CSV: ``x_m, y_m, w_tr_right_m, w_tr_left_m`` (TUMFTM racetrack-database, f1tenth racetracks),
+  ``#`` comment lines, first row not repeated.
+
+Only numpy, json and pathlib are used here.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import h2h_racing
+from h2h_racing.track import Track
+
+TRACK_FORMAT = "h2h-racing-track/1"
+"""Value of the ``"format"`` key of a catalogue JSON file."""
+_JSON_KEYS = ("format", "name", "description", "x", "y", "width_left", "width_right")
+_SUFFIXES = (".json", ".npy", ".csv")
+
+
+def catalogue_dir() -> Path:
+    """Return the folder of the bundled catalogue (``h2h_racing/catalogue`` if installed, else ``tracks/``)."""
+    pkg = Path(h2h_racing.__file__).resolve().parent
+    installed = pkg / "catalogue"
+    return installed if installed.is_dir() else pkg.parent / "tracks"
+
+
+def catalogue() -> dict[str, Path]:
+    """Return the catalogue tracks as ``{name: path}``, sorted by name (names are the file stems)."""
+    folder = catalogue_dir()
+    if not folder.is_dir():
+        return {}
+    return {p.stem: p for p in sorted(folder.glob("*.json"))}
+
+
+def list_tracks() -> list[str]:
+    """Return the sorted names of the catalogue tracks."""
+    return list(catalogue())
+
+
+def load_track(
+    name_or_path: str | Path,
+    *,
+    scale: float | tuple[float, float] | None = None,
+    reverse: bool = False,
+) -> Track:
+    """Load a track from the catalogue or from a file.
+
+    Args:
+        name_or_path: A catalogue name (see :func:`list_tracks`), or a path ending in ``.json``, ``.npy`` or
+            ``.csv``.
+        scale: Optional scaling about the origin: a float scales lengths and widths alike; a pair
+            ``(length_scale, width_scale)`` scales coordinates and widths separately (real circuits need
+            this: Catalunya's 4.65 km, ~11 m wide lap becomes DeepRacer's 60 m, 0.9 m wide one with about
+            ``(0.0129, 0.082)``). Explicit DeepRacer borders are then recomputed from the scaled widths.
+        reverse: Drive the track the other way round (:meth:`Track.reversed`).
+
+    Returns:
+        The validated :class:`Track`.
+
+    Raises:
+        FileNotFoundError: If the path does not exist.
+        ValueError: If the name is unknown, the suffix unsupported, or the file malformed or invalid.
+    """
+    text = str(name_or_path)
+    cat = catalogue()
+    if isinstance(name_or_path, str) and text in cat:
+        path = cat[text]
+    else:
+        path = Path(name_or_path)
+        if path.suffix.lower() not in _SUFFIXES:
+            names = ", ".join(cat) or "(none found in " + str(catalogue_dir()) + ")"
+            raise ValueError(
+                f"Unknown track {text!r}. Expected a catalogue name ({names}) or a path ending in "
+                f"{', '.join(_SUFFIXES)}."
+            )
+        if not path.is_file():
+            raise FileNotFoundError(f"Track file not found: {path.resolve()}")
+    suffix = path.suffix.lower()
+    if suffix == ".json":
+        track = _read_json(path)
+    elif suffix == ".npy":
+        track = _read_npy(path)
+    else:
+        track = _read_csv(path)
+    if scale is not None:
+        track = _scaled(track, scale)
+    return track.reversed() if reverse else track
+
+
+def save_track(track: Track, path: str | Path) -> Path:
+    """Write ``track`` as a catalogue JSON file (centre line and widths; explicit borders are not kept).
+
+    Args:
+        track: The track to write.
+        path: Destination, should end in ``.json``.
+
+    Returns:
+        The path written.
+    """
+    path = Path(path)
+    doc = {
+        "format": TRACK_FORMAT,
+        "name": track.name,
+        "description": track.description,
+        "x": track.centre[:, 0].tolist(),
+        "y": track.centre[:, 1].tolist(),
+        "width_left": track.width_left.tolist(),
+        "width_right": track.width_right.tolist(),
+    }
+    path.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+    return path
+
+
+# ---------------------------------------------------------------------- readers
+
+
+def _read_json(path: Path) -> Track:
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path}: not valid JSON ({exc}).") from exc
+    if not isinstance(doc, dict):
+        raise ValueError(f"{path}: expected a JSON object with keys {list(_JSON_KEYS)}, got {type(doc).__name__}.")
+    unknown = sorted(set(doc) - set(_JSON_KEYS))
+    missing = [k for k in _JSON_KEYS if k not in doc]
+    if unknown or missing:
+        raise ValueError(
+            f"{path}: expected exactly the keys {list(_JSON_KEYS)}; unknown keys {unknown}, missing keys {missing}."
+        )
+    if doc["format"] != TRACK_FORMAT:
+        raise ValueError(f"{path}: expected format {TRACK_FORMAT!r}, got {doc['format']!r}.")
+    arrays = {}
+    for key in ("x", "y", "width_left", "width_right"):
+        try:
+            arrays[key] = np.array(doc[key], dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{path}: {key!r} must be a list of numbers ({exc}).") from exc
+        if arrays[key].ndim != 1:
+            raise ValueError(f"{path}: {key!r} must be a flat list of numbers, got shape {arrays[key].shape}.")
+    if len(arrays["x"]) != len(arrays["y"]):
+        raise ValueError(f"{path}: 'x' and 'y' must have the same length, got {len(arrays['x'])} and {len(arrays['y'])}.")
+    return Track(
+        np.stack([arrays["x"], arrays["y"]], axis=1),
+        arrays["width_left"],
+        arrays["width_right"],
+        name=str(doc["name"]),
+        description=str(doc["description"]),
+        source=str(path),
+    )
+
+
+def _read_npy(path: Path) -> Track:
+    try:
+        rows = np.load(path, allow_pickle=False)
+    except ValueError as exc:
+        raise ValueError(f"{path}: not a plain numpy array file ({exc}).") from exc
+    if rows.ndim != 2 or rows.shape[1] != 6 or not np.issubdtype(rows.dtype, np.floating):
+        raise ValueError(
+            f"{path}: expected a DeepRacer route array of shape (N, 6) float "
+            f"[cx, cy, inner_x, inner_y, outer_x, outer_y], got shape {rows.shape} dtype {rows.dtype}."
+        )
+    rows = rows.astype(np.float64)
+    # Geometry: drop the closing duplicate (the loop is implied); zero-length segments elsewhere stay.
+    geo = rows[:-1] if len(rows) > 1 and np.array_equal(rows[-1, :2], rows[0, :2]) else rows
+    centre, inner, outer = geo[:, 0:2], geo[:, 2:4], geo[:, 4:6]
+    x, y = centre[:, 0], centre[:, 1]
+    ccw = np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) > 0
+    # "inner" is the inside of the loop: on the left of travel when the loop runs counter-clockwise.
+    left, right = (inner, outer) if ccw else (outer, inner)
+    return Track(
+        centre,
+        np.hypot(*(left - centre).T),
+        np.hypot(*(right - centre).T),
+        name=path.stem,
+        description=f"DeepRacer route {path.name}",
+        source=str(path),
+        left_border=left,
+        right_border=right,
+        waypoints=rows[:, 0:2],
+    )
+
+
+def _read_csv(path: Path) -> Track:
+    try:
+        data = np.loadtxt(path, delimiter=",", comments="#", dtype=np.float64, ndmin=2)
+    except ValueError as exc:
+        raise ValueError(
+            f"{path}: expected numeric CSV rows x_m,y_m,w_tr_right_m,w_tr_left_m ({exc})."
+        ) from exc
+    if data.shape[1] != 4:
+        raise ValueError(
+            f"{path}: expected 4 columns x_m,y_m,w_tr_right_m,w_tr_left_m, got shape {data.shape}."
+        )
+    if len(data) > 1 and np.array_equal(data[-1, :2], data[0, :2]):
+        data = data[:-1]  # tolerate a repeated first row
+    return Track(
+        data[:, 0:2],
+        data[:, 3],
+        data[:, 2],
+        name=path.stem,
+        description=f"centre-line CSV {path.name}",
+        source=str(path),
+    )
+
+
+def _scaled(track: Track, scale: Any) -> Track:
+    """Return ``track`` scaled about the origin by ``scale`` (float, or ``(length_scale, width_scale)``)."""
+    try:
+        pair = np.broadcast_to(np.asarray(scale, dtype=np.float64), (2,))
+    except ValueError as exc:
+        raise ValueError(
+            f"{track.source}: expected scale as a float or a pair (length_scale, width_scale), got {scale!r}."
+        ) from exc
+    ls, ws = float(pair[0]), float(pair[1])
+    if not (ls > 0 and ws > 0 and np.isfinite(ls) and np.isfinite(ws)):
+        raise ValueError(f"{track.source}: scale factors must be finite and > 0, got {scale!r}.")
+    uniform = ls == ws
+    return Track(
+        track.centre * ls,
+        track.width_left * ws,
+        track.width_right * ws,
+        name=track.name,
+        description=track.description,
+        source=track.source,
+        # A uniform scale keeps explicit borders; separate factors change their shape, so recompute them.
+        left_border=track.left_border * ls if uniform and track._explicit_borders else None,
+        right_border=track.right_border * ls if uniform and track._explicit_borders else None,
+        waypoints=track.waypoints * ls,
+    )
