@@ -23,6 +23,7 @@ from h2h_racing.config import EnvConfig
 from h2h_racing.dynamics import SingleTrackModel
 from h2h_racing.physics import PhysicsWorld
 from h2h_racing.track import Track
+from h2h_racing.track_lookup import TrackLookup
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -30,8 +31,9 @@ IntArray = npt.NDArray[np.int64]
 
 ENV_GAP = 30.0
 """Empty space between the bounding boxes of neighbouring env copies in the shared Space [m]."""
-PARK_MARGIN = 3.0
-"""Parked cars wait this far beyond the track's bounding box [m]."""
+PARK_MARGIN = 1.0
+"""Parked cars wait this far beyond the track's bounding box [m] (inside the projection
+grid's margin, so projecting them stays cheap)."""
 REPLACE_CLEARANCE = 0.45
 """A re-placed car needs this much distance to every other body's centre [m]."""
 
@@ -97,6 +99,9 @@ class RaceCore:
         self.num_obstacles = config.obstacle_count
         self.dt = config.step_dt
         self.model = SingleTrackModel(config.car)
+        self._projector = track.projector()
+        self.lookup = TrackLookup.from_track(track)
+        """Uniform tables of the track's fields for the compiled kernels."""
         self.inner_sign = 1 if track.is_ccw else -1
         car = config.car
         # Wheel centres in the body frame: rear axle at -l_r, front at +l_f, +-track/2.
@@ -213,14 +218,23 @@ class RaceCore:
         self.obstacle_yaw = zeros((e, k))
         """Obstacle headings, (E, K), radians."""
         self._parked = zeros((e, n), dtype=bool)
+        self._points = zeros((1 + len(self._wheels), 2))
+        self._s_points = zeros(1 + len(self._wheels))
+        self._d_points = zeros(1 + len(self._wheels))
+        self._no_cars = zeros((e, n), dtype=bool)
+        self._no_cars.flags.writeable = False
+        self._zero_counts = zeros((e, n), dtype=np.int64)
+        self._zero_counts.flags.writeable = False
+        self._racing = np.ones((e, n), dtype=bool)
+        self._pending_any = False
         self._pressure = zeros((e, n, n))
         self._faster = zeros((e, n, n), dtype=bool)
         self._gap = zeros((e, n, n))
 
     @property
     def racing(self) -> BoolArray:
-        """Cars neither done nor frozen by a penalty, (E, N)."""
-        return ~self.done & (self.frozen_until <= self.time[:, None])
+        """Cars neither done nor frozen by a penalty, (E, N) (a copy)."""
+        return self._racing.copy()
 
     @property
     def frozen(self) -> BoolArray:
@@ -332,8 +346,10 @@ class RaceCore:
             self.obstacle_d[mask] = obs_d
             self.obstacle_position[mask] = opos
             self.obstacle_yaw[mask] = oyaw
+        self._racing = ~self.done & (self.frozen_until <= self.time[:, None])
+        self._pending_any = bool(self.pending_replace.any())
         self._update_ranks()
-        self._gap = race.pairwise_gap(self.distance)
+        self._gap = self.distance[:, :, None] - self.distance[:, None, :]
         self._sync_physics()
 
     def _sync_physics(self) -> None:
@@ -359,156 +375,163 @@ class RaceCore:
 
         Returns:
             The events of the step. Cars that are done or frozen ignore their commands.
+            The returned arrays belong to the caller (the core does not reuse them).
         """
-        if self.world is None:
+        world = self.world
+        if world is None:
             raise RuntimeError("call reset() before step()")
         cfg, rules, track = self.config, self.rules, self.track
         e, n = self.num_envs, self.num_cars
         dt = self.dt
-        racing = self.racing
-        max_steer = cfg.car.max_steer
-        steer_command = np.minimum(np.maximum(steer_command, -max_steer), max_steer) * racing
-        speed_command = speed_command * racing
+        racing = self._racing
         self.steer_command = steer_command
         self.speed_command = speed_command
 
         # Phase 1: dynamics for all cars, then contacts and integration in pymunk.
         velocity, yaw_rate, steer = self.model.step(
             self.yaw.reshape(-1), self.velocity.reshape(-1, 2), self.yaw_rate.reshape(-1),
-            self.steer.reshape(-1), steer_command.reshape(-1), speed_command.reshape(-1), dt)
-        flat_racing = racing.reshape(-1)
-        velocity *= flat_racing[:, None]
-        yaw_rate *= flat_racing
-        prev_position = self.position
-        prev_distance = self.distance
-        position, yaw, velocity, yaw_rate = self.world.step(velocity, yaw_rate, dt,
-                                                            cfg.physics_substeps)
-        position = position.reshape(e, n, 2) - self.env_offset[:, None, :]
-        self.position = position
-        self.yaw = np.mod(yaw.reshape(e, n) + math.pi, 2.0 * math.pi) - math.pi
-        self.velocity = velocity.reshape(e, n, 2)
-        self.yaw_rate = yaw_rate.reshape(e, n)
-        self.steer = steer.reshape(e, n) * racing
-        cos_yaw, sin_yaw = np.cos(self.yaw), np.sin(self.yaw)
-        self.speed = cos_yaw * self.velocity[..., 0] + sin_yaw * self.velocity[..., 1]
-        active_env = ~np.all(self.done, axis=1)
-        self.time = self.time + dt * active_env
-        self.steps = self.steps + active_env
-        time = self.time[:, None]
+            self.steer.reshape(-1), steer_command.reshape(-1), speed_command.reshape(-1),
+            racing.reshape(-1), dt)
+        self.steer = steer.reshape(e, n)
+        world.step(velocity, yaw_rate, dt, cfg.physics_substeps)
 
-        # Phase 2: rules on the new snapshot. Project the car centre and four wheels at once.
-        rot = np.stack([np.stack([cos_yaw, -sin_yaw], -1), np.stack([sin_yaw, cos_yaw], -1)], -2)
-        wheels = position[:, :, None, :] + np.einsum("enij,wj->enwi", rot, self._wheels)
-        points = np.concatenate([position[:, :, None, :], wheels], axis=2)
-        s_all, d_all = track.project(points)
-        width_left, width_right = track.half_widths_at(s_all[..., 1:])
-        s = s_all[..., 0]
-        step_distance = race.wrap_arc(s - self.s, track.length) * racing
-        self.s = s
-        self.d = d_all[..., 0]
-        self.distance = prev_distance + step_distance
-        off_track = race.all_wheels_off(d_all[..., 1:], width_left, width_right) & racing
+        # Phase 2: rules on the new snapshot, per car in one compiled pass.
+        proj, lut = self._projector, self.lookup
+        step_distance = np.empty((e, n))
+        off_track = np.empty((e, n), dtype=bool)
+        reversed_ = np.empty((e, n), dtype=bool)
+        immobilised = np.empty((e, n), dtype=bool)
+        laps = np.empty((e, n), dtype=np.int64)
+        event, out_of_time = race.advance_cars(
+            world.state, self.env_offset, self._wheels, racing, self.done, self.time, self.steps,
+            rules.time_limit, self.max_cycles, dt, self.position, self.yaw,
+            self.velocity, self.yaw_rate, self.speed, self.s, self.d, self.distance,
+            self.lap_origin, self.laps, self.reverse_count, self.immobile_count,
+            rules.reversed_steps, rules.immobilised_steps, rules.immobilised_distance,
+            self._points, self._s_points, self._d_points, proj.origin, proj.inv_cell, proj.hi,
+            proj.ny, proj.start, proj.cert, proj.tab, proj.window, proj.tab_full,
+            lut.width_left, lut.width_right, lut.inv_ds, lut.length,
+            step_distance, off_track, reversed_, immobilised, laps)
+        contact_a, contact_b = world.pop_contacts()
 
         # Laps.
-        laps = race.count_laps(self.distance, self.lap_origin, track.length)
-        lap_completed = (laps > self.laps) & racing
-        finished_now = np.zeros((e, n), dtype=bool)
-        if lap_completed.any():
+        lap_completed = laps > self.laps if event else self._no_cars
+        if event and lap_completed.any():
             finished_now = self._complete_laps(lap_completed, laps, step_distance)
-
-        # Contacts, reversing and immobility.
-        a, b = self.world.pop_contacts()
-        if a.size:
-            crashed, collided, collision_events = race.judge_contacts(
-                a, b, e, n, self.num_obstacles, self.distance, racing)
         else:
-            crashed = collided = np.zeros((e, n), dtype=bool)
+            finished_now = self._no_cars
+
+        # Contacts.
+        if contact_a.size:
+            crashed, collided, collision_events = race.judge_contacts(
+                contact_a, contact_b, e, n, self.num_obstacles, self.distance, racing)
+            self.collisions += collided
+            self.crashes += crashed
+            event = True
+        else:
+            crashed = collided = self._no_cars
             collision_events = []
-        moved = np.hypot(position[..., 0] - prev_position[..., 0],
-                         position[..., 1] - prev_position[..., 1])
-        self.reverse_count = race.consecutive(self.reverse_count, (step_distance < 0) & racing)
-        self.immobile_count = race.consecutive(
-            self.immobile_count, (moved <= rules.immobilised_distance) & racing)
-        reversed_ = self.reverse_count >= rules.reversed_steps
-        immobilised = self.immobile_count >= rules.immobilised_steps
-        self.collisions += collided
-        self.crashes += crashed
-        self.off_tracks += off_track
 
         # Overtakes and defences between cars racing before and after the step.
-        gap = race.pairwise_gap(self.distance)
-        still = racing & ~finished_now
-        eligible = still[:, :, None] & still[:, None, :]
-        passed = race.detect_overtakes(self._gap, gap, eligible, track.length)
-        self._pressure, self._faster, defended = race.update_pressure(
-            self._pressure, self._faster, gap, self.speed, eligible, passed, dt,
-            rules.defence_gap, rules.defence_time)
-        overtakes_now = passed.sum(axis=2)
-        overtaken_now = passed.sum(axis=1)
-        defences_now = defended.sum(axis=1)
-        self.overtakes += overtakes_now
-        self.overtaken += overtaken_now
-        self.defences += defences_now
-        passes = [] if not passed.any() else [tuple(x) for x in np.argwhere(passed).tolist()]
+        passes: list[tuple[int, int, int]] = []
+        overtakes_now = overtaken_now = defences_now = self._zero_counts
+        if n > 1:
+            still = racing & ~finished_now if event else racing
+            gap = np.empty((e, n, n))
+            passed = np.zeros((e, n, n), dtype=bool)
+            defended = np.zeros((e, n, n), dtype=bool)
+            any_passed, any_defended = race.pairs_kernel(
+                self.distance, self._gap, still, self.speed, self._pressure, self._faster,
+                track.length, dt, rules.defence_gap, rules.defence_time, gap, passed, defended)
+            self._gap = gap
+            if any_passed:
+                overtakes_now = passed.sum(axis=2)
+                overtaken_now = passed.sum(axis=1)
+                self.overtakes += overtakes_now
+                self.overtaken += overtaken_now
+                passes = [tuple(x) for x in np.argwhere(passed).tolist()]
+            if any_defended:
+                defences_now = defended.sum(axis=1)
+                self.defences += defences_now
 
         # Infractions: end the car's episode (training) or freeze it for a penalty (race).
-        crash_infraction = crashed & rules.crash_is_infraction
-        infraction = (off_track | crash_infraction | reversed_ | immobilised) & racing
-        infraction &= ~finished_now
-        penalised = np.zeros((e, n), dtype=bool)
-        if infraction.any():
-            if rules.mode == "training":
-                self.done |= infraction
-            else:
-                penalty = np.maximum.reduce([
-                    off_track * rules.off_track_penalty,
-                    crash_infraction * rules.crash_penalty,
-                    reversed_ * rules.reversed_penalty,
-                    immobilised * rules.immobilised_penalty])
-                penalised = infraction
-                self.penalties += infraction
-                self.penalty_time += penalty * infraction
-                self.frozen_until = np.where(infraction, time + penalty, self.frozen_until)
-                self.pending_replace |= infraction
-                # Off track, reversed or stuck: back to the last valid progress; a crash
-                # leaves the car on the surface, where it is.
-                back = off_track | reversed_ | immobilised
-                self.replace_distance = np.where(
-                    infraction, np.where(back, prev_distance, self.distance),
-                    self.replace_distance)
-            self.reverse_count *= ~infraction
-            self.immobile_count *= ~infraction
+        penalised = self._no_cars
+        if event:
+            self.off_tracks += off_track
+            crash_infraction = crashed & rules.crash_is_infraction
+            infraction = (off_track | crash_infraction | reversed_ | immobilised) & racing
+            infraction &= ~finished_now
+            if infraction.any():
+                penalised = self._infractions(infraction, off_track, crash_infraction,
+                                              reversed_, immobilised,
+                                              self.distance - step_distance)
 
         # Time limit and lap target.
-        terminated = self.done & ~self._parked
-        truncated = np.zeros((e, n), dtype=bool)
-        out_of_time = (self.time >= rules.time_limit) | (self.steps >= self.max_cycles)
-        if out_of_time.any():
-            truncated = out_of_time[:, None] & ~self.done
-        self.done |= truncated
+        terminated = truncated = self._no_cars
+        if event:
+            terminated = self.done & ~self._parked
+        if out_of_time:
+            ended = (self.time >= rules.time_limit) | (self.steps >= self.max_cycles)
+            truncated = ended[:, None] & ~self.done
+            self.done |= truncated
 
         # Put penalised cars back, park cars whose episode ended.
-        replaced = self.pending_replace & ~self.done & (self.frozen_until <= time)
-        newly_done = self.done & ~self._parked
-        if replaced.any() or newly_done.any():
-            if replaced.any():
-                self._replace(replaced)
-            if newly_done.any():
-                self._park_cars(newly_done)
-            self._sync_physics()
-        frozen_cars = self.frozen
-        if frozen_cars.any():
-            self.velocity = self.velocity * ~frozen_cars[..., None]
-            self.yaw_rate = self.yaw_rate * ~frozen_cars
+        replaced = self._no_cars
+        if self._pending_any or event or out_of_time:
+            replaced = self.pending_replace & ~self.done & (self.frozen_until <= self.time[:, None])
+            newly_done = self.done & ~self._parked
+            if replaced.any() or newly_done.any():
+                if replaced.any():
+                    self._replace(replaced)
+                if newly_done.any():
+                    self._park_cars(newly_done)
+                self._sync_physics()
+                # Gaps before the next step must see the re-placed cars where they now are.
+                self._gap = self.distance[:, :, None] - self.distance[:, None, :]
+            self._pending_any = bool(self.pending_replace.any())
+            self._racing = ~self.done & (self.frozen_until <= self.time[:, None])
         self._update_ranks()
-        self._gap = race.pairwise_gap(self.distance)
         return StepEvents(
             terminated=terminated, truncated=truncated,
-            off_track=off_track, crashed=crashed, collided=collided, reversed=reversed_ & racing,
-            immobilised=immobilised & racing, penalised=penalised, replaced=replaced,
+            off_track=off_track, crashed=crashed, collided=collided, reversed=reversed_,
+            immobilised=immobilised, penalised=penalised, replaced=replaced,
             lap_completed=lap_completed, finished=finished_now, progress=step_distance,
             overtakes=overtakes_now, overtaken=overtaken_now, defences=defences_now,
             collisions=collision_events, passes=passes)
+
+    def _infractions(self, infraction: BoolArray, off_track: BoolArray, crash: BoolArray,
+                     reversed_: BoolArray, immobilised: BoolArray,
+                     prev_distance: FloatArray) -> BoolArray:
+        """Apply the rules' consequence of each infraction; return the penalised cars."""
+        rules = self.rules
+        self.reverse_count *= ~infraction
+        self.immobile_count *= ~infraction
+        if rules.mode == "training":
+            self.done |= infraction
+            return self._no_cars
+        penalty = np.maximum.reduce([
+            off_track * rules.off_track_penalty,
+            crash * rules.crash_penalty,
+            reversed_ * rules.reversed_penalty,
+            immobilised * rules.immobilised_penalty])
+        self.penalties += infraction
+        self.penalty_time += penalty * infraction
+        self.frozen_until = np.where(infraction, self.time[:, None] + penalty,
+                                     self.frozen_until)
+        self.pending_replace |= infraction
+        self._pending_any = True
+        # Off track, reversed or stuck: back to the last valid progress; a crash leaves the
+        # car on the surface, where it is.
+        back = off_track | reversed_ | immobilised
+        self.replace_distance = np.where(
+            infraction, np.where(back, prev_distance, self.distance), self.replace_distance)
+        return infraction.copy()
+
+    def _project_mask(self, racing: BoolArray) -> BoolArray | None:
+        """Project every car's points, or only racing cars' when some cars are parked."""
+        if not self._parked.any():
+            return None
+        return np.broadcast_to(racing[:, :, None], self._points.shape[:3])
 
     def _complete_laps(self, completed: BoolArray, laps: IntArray,
                        step_distance: FloatArray) -> BoolArray:
@@ -587,6 +610,5 @@ class RaceCore:
         self._parked[env_idx, car_idx] = True
 
     def _update_ranks(self) -> None:
-        key = race.race_order_key(self.distance, self.finished, self.finish_time,
-                                  self.best_lap_time, self.rules.ranking)
-        self.rank = race.ranks(key)
+        race._rank_kernel(self.distance, self.finished, self.finish_time, self.best_lap_time,
+                          self.rules.ranking == "best_lap", self.rank)

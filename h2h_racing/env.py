@@ -85,6 +85,7 @@ Every other keyword is a field of `EnvConfig` (e.g. `action_type="discrete"`,
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Any
 
 import numpy as np
@@ -168,6 +169,7 @@ class RacingEnv(ParallelEnv):
         self._action_spaces = {a: act_space for a in self.possible_agents}
         self._speed_scale = 0.5 * (config.max_speed - config.min_speed)
         self._speed_mid = 0.5 * (config.max_speed + config.min_speed)
+        self._zero_terms = dict.fromkeys(config.reward.terms())
         self._renderer: Any = None
         self._reset_done = False
 
@@ -215,8 +217,7 @@ class RacingEnv(ParallelEnv):
         self.agents = self.possible_agents[:]
         self._reset_done = True
         obs = self._observations()
-        zero_terms = dict.fromkeys(self.config.reward.terms(), 0.0)
-        return obs, self._infos(self.agents, None, zero_terms_all=zero_terms)
+        return obs, self._infos(self.agents, None, None)
 
     def step(self, actions: dict[str, Any]) -> tuple[dict[str, Any], dict[str, float],
                                                      dict[str, bool], dict[str, bool],
@@ -241,10 +242,10 @@ class RacingEnv(ParallelEnv):
             raise RuntimeError("the race is over (env.agents is empty); call reset()")
         steer, speed = self._parse_actions(actions, agents)
         core = self.core
-        racing = core.racing
+        racing = core._racing
         events = core.step(steer, speed)
         terms = rewards.reward_terms(self.config.reward, events, core.speed, racing)
-        reward = rewards.total_reward(terms)[0].tolist()
+        reward = rewards.total_reward(terms, events.progress.shape)[0].tolist()
         obs = self._observations()
         term = events.terminated[0].tolist()
         trunc = events.truncated[0].tolist()
@@ -268,26 +269,26 @@ class RacingEnv(ParallelEnv):
             raise ValueError(f"actions must have exactly one entry per live agent {agents}; "
                              f"missing {missing}, unknown or finished {unknown}")
         n = self.config.num_cars
-        steer = np.zeros((1, n))
-        speed = np.zeros((1, n))
-        idx = [self._index[a] for a in agents]
+        every = len(agents) == n
         if self.config.action_type == "continuous":
             try:
                 values = np.array([actions[a] for a in agents], dtype=np.float64)
             except (TypeError, ValueError) as exc:
-                raise ValueError(f"actions must be arrays of 2 numbers [steer, speed]: "
+                raise ValueError(f"actions must be arrays of 2 numbers [steer, speed]; got "
                                  f"{ {a: actions[a] for a in agents} }") from exc
             if values.shape != (len(agents), 2):
                 bad = {a: np.shape(actions[a]) for a in agents if np.shape(actions[a]) != (2,)}
                 raise ValueError(f"each action must have shape (2,) = [steer, speed]; "
                                  f"got shapes {bad}")
-            if not np.isfinite(values).all():
+            # NaN and inf propagate through a sum, so one reduction checks every value.
+            if not math.isfinite(values.sum()):
                 bad = {a: actions[a] for a, row in zip(agents, values)
                        if not np.isfinite(row).all()}
                 raise ValueError(f"actions must be finite; got NaN or inf for {bad}")
-            values = np.minimum(np.maximum(values, -1.0), 1.0)
-            steer[0, idx] = values[:, 0] * self.config.car.max_steer
-            speed[0, idx] = self._speed_mid + self._speed_scale * values[:, 1]
+            np.minimum(values, 1.0, out=values)
+            np.maximum(values, -1.0, out=values)
+            steer_values = values[:, 0] * self.config.car.max_steer
+            speed_values = values[:, 1] * self._speed_scale + self._speed_mid
         else:
             count = len(self.config.discrete_actions)
             chosen = []
@@ -298,26 +299,36 @@ class RacingEnv(ParallelEnv):
                     raise ValueError(f"action of {a} must be an integer index in "
                                      f"[0, {count - 1}], got {value!r}")
                 chosen.append(int(value))
-            steer[0, idx] = self._discrete_steer[chosen]
-            speed[0, idx] = self._discrete_speed[chosen]
+            steer_values = self._discrete_steer[chosen]
+            speed_values = self._discrete_speed[chosen]
+        if every:
+            return steer_values.reshape(1, n), speed_values.reshape(1, n)
+        # Finished cars keep a zero command (the core ignores them anyway).
+        idx = [self._index[a] for a in agents]
+        steer = np.zeros((1, n))
+        speed = np.zeros((1, n))
+        steer[0, idx] = steer_values
+        speed[0, idx] = speed_values
         return steer, speed
 
     def _observations(self) -> dict[str, npt.NDArray[np.float32]]:
         obs = state_observation(self.core)[0]
         return {a: obs[i] for i, a in enumerate(self.possible_agents)}
 
-    def _infos(self, agents: list[str], events: Any, terms: dict[str, Any] | None = None,
-               zero_terms_all: dict[str, float] | None = None) -> dict[str, dict[str, Any]]:
+    def _infos(self, agents: list[str], events: Any,
+               terms: dict[str, Any] | None) -> dict[str, dict[str, Any]]:
         core = self.core
+        n = self.config.num_cars
+        distance = core.distance[0]
         lists = {
-            "progress": core.episode_progress[0].tolist(),
-            "distance": core.distance[0].tolist(),
+            "progress": ((distance - core.start_distance[0])
+                         * (100.0 / self.track.length)).tolist(),
+            "distance": distance.tolist(),
             "lap": core.laps[0].tolist(),
             "last_lap_time": core.last_lap_time[0].tolist(),
             "best_lap_time": core.best_lap_time[0].tolist(),
             "rank": core.rank[0].tolist(),
-            "gap_to_leader": (core.distance[0].max() - core.distance[0]).tolist(),
-            "frozen": core.frozen[0].tolist(),
+            "frozen": (core.frozen_until[0] > core.time[0]).tolist(),
             "finished": core.finished[0].tolist(),
             "overtakes": core.overtakes[0].tolist(),
             "overtaken": core.overtaken[0].tolist(),
@@ -331,10 +342,11 @@ class RacingEnv(ParallelEnv):
             lists["collided"] = events.collided[0].tolist()
             lists["penalised"] = events.penalised[0].tolist()
         else:
-            false = [False] * self.config.num_cars
+            false = [False] * n
             lists.update(off_track=false, crashed=false, collided=false, penalised=false)
+        term_lists = {name: ([0.0] * n if value is None else value[0].tolist())
+                      for name, value in (terms or self._zero_terms).items()}
         time = float(core.time[0])
-        term_lists = {k: v[0].tolist() for k, v in terms.items()} if terms else None
         lap_times = core.lap_times[0]
         infos = {}
         for a in agents:
@@ -342,8 +354,7 @@ class RacingEnv(ParallelEnv):
             info = {key: values[i] for key, values in lists.items()}
             info["lap_times"] = list(lap_times[i])
             info["time"] = time
-            info["reward_terms"] = ({k: v[i] for k, v in term_lists.items()} if term_lists
-                                    else dict(zero_terms_all or {}))
+            info["reward_terms"] = {name: values[i] for name, values in term_lists.items()}
             infos[a] = info
         return infos
 

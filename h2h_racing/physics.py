@@ -26,6 +26,8 @@ _STATE_FIELDS = (pb.BodyFields.POSITION | pb.BodyFields.ANGLE | pb.BodyFields.VE
                  | pb.BodyFields.ANGULAR_VELOCITY)
 _VELOCITY_FIELDS = pb.BodyFields.VELOCITY | pb.BodyFields.ANGULAR_VELOCITY
 _EMPTY = np.zeros(0, dtype=np.int64)
+_READ_SLACK = 1024
+"""Spare floats in the read buffer beyond the bodies' state."""
 
 
 class PhysicsWorld:
@@ -88,12 +90,18 @@ class PhysicsWorld:
         # touching, so a step without new contacts pays nothing for contact detection.
         self._begun: list[tuple[int, int]] = []
         space.on_collision(begin=self._on_begin)
-        # Two buffers: pymunk grows (reallocates) the read buffer's own memory, while the
-        # write buffer wraps numpy memory, which pymunk must never reallocate.
+        # The read buffer wraps numpy memory with room to spare, so pymunk never needs to grow
+        # it: pymunk must never reallocate memory that numpy owns.
+        self._read_memory = np.zeros(total * 6 + _READ_SLACK, dtype=np.float64)
+        self._state = self._read_memory[: total * 6].reshape(total, 6)
         self._read_buffer = pb.Buffer()
-        self._write_buffer = pb.Buffer()
+        self._read_buffer.set_float_buf(self._read_memory)
+        self._write_vel_buffer = pb.Buffer()
+        self._write_state_buffer = pb.Buffer()
         self._write = np.zeros((total, 6), dtype=np.float64)
         self._write_vel = np.zeros((total, 3), dtype=np.float64)
+        self._write_state_buffer.set_float_buf(self._write.reshape(-1))
+        self._write_vel_buffer.set_float_buf(self._write_vel.reshape(-1))
         self._check_body_order(ids)
 
     def _check_body_order(self, ids: npt.NDArray[np.uint64]) -> None:
@@ -118,44 +126,46 @@ class PhysicsWorld:
         write[:, 2] = angle
         write[:, 3:5] = velocity
         write[:, 5] = angular_velocity
-        self._write_buffer.set_float_buf(write.reshape(-1))
         # Shapes of dynamic and kinematic bodies are re-indexed at the start of every
         # pymunk step, so teleported bodies need no explicit re-index.
-        pb.set_space_bodies(self.space, _STATE_FIELDS, self._write_buffer)
+        pb.set_space_bodies(self.space, _STATE_FIELDS, self._write_state_buffer)
+
+    @property
+    def state(self) -> FloatArray:
+        """Every body's state after the last step, (C + O, 6): x, y, angle, vx, vy, omega.
+
+        The array is refreshed in place by each :meth:`step`.
+        """
+        return self._state
 
     def step(self, velocity: FloatArray, angular_velocity: FloatArray, dt: float,
-             substeps: int) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-        """Hold car velocities, run ``substeps`` pymunk steps, and read the state back.
+             substeps: int) -> None:
+        """Hold car velocities, run ``substeps`` pymunk steps, and read every body back.
 
         Args:
             velocity: World-frame car velocities, shape (C, 2), m/s.
             angular_velocity: Car yaw rates, shape (C,), rad/s.
             dt: Total step length [s], split evenly over the sub-steps.
             substeps: Number of pymunk steps.
-
-        Returns:
-            ``(position (C, 2), angle (C,), velocity (C, 2), angular_velocity (C,))`` of the
-            cars after the step (views into a fresh array).
         """
         c = self.num_cars
         write = self._write_vel
         write[:c, 0:2] = velocity
         write[:c, 2] = angular_velocity
-        self._write_buffer.set_float_buf(write.reshape(-1))
-        pb.set_space_bodies(self.space, _VELOCITY_FIELDS, self._write_buffer)
+        pb.set_space_bodies(self.space, _VELOCITY_FIELDS, self._write_vel_buffer)
         sub_dt = dt / substeps
         space_step = self.space.step
         for _ in range(substeps):
             space_step(sub_dt)
-        return self.read_cars()
+        self._read_buffer.clear()
+        pb.get_space_bodies(self.space, _STATE_FIELDS, self._read_buffer)
 
     def read_cars(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-        """Read every car's position, angle, velocity and angular velocity."""
+        """Read every car's position, angle, velocity and angular velocity (fresh arrays)."""
         buffer = self._read_buffer
         buffer.clear()
         pb.get_space_bodies(self.space, _STATE_FIELDS, buffer)
-        data = np.frombuffer(buffer.float_buf(), dtype=np.float64).reshape(-1, 6)[
-            : self.num_cars].copy()
+        data = self._state[: self.num_cars].copy()
         return data[:, 0:2], data[:, 2], data[:, 3:5], data[:, 5]
 
     def _on_begin(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: object) -> None:

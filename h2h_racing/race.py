@@ -12,8 +12,16 @@ Conventions:
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import numpy.typing as npt
+from numba import njit
+
+from h2h_racing.track import project_kernel
+from h2h_racing.track_lookup import lookup
+
+_EVERY_POINT = np.zeros(0, dtype=np.bool_)
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -30,19 +38,6 @@ def wrap_arc(delta_s: FloatArray, length: float) -> FloatArray:
     return np.mod(delta_s + half, length) - half
 
 
-def count_laps(distance: FloatArray, lap_origin: FloatArray, length: float) -> IntArray:
-    """Return the number of complete laps driven since ``lap_origin``.
-
-    A lap is complete each time ``distance - lap_origin`` reaches a multiple of the track
-    length; a car behind its origin has completed 0 laps.
-
-    >>> count_laps(np.array([-0.7, 0.0, 9.99, 10.0, 25.0]), np.zeros(5), 10.0).tolist()
-    [0, 0, 0, 1, 2]
-    """
-    laps = np.floor((distance - lap_origin) * (1.0 / length)).astype(np.int64)
-    return np.maximum(laps, 0)
-
-
 def crossing_time(time: FloatArray | float, dt: float, distance: FloatArray,
                   step_distance: FloatArray, line: FloatArray) -> FloatArray:
     """Interpolate when a car crossed ``line`` during the last step.
@@ -57,31 +52,6 @@ def crossing_time(time: FloatArray | float, dt: float, distance: FloatArray,
     fraction = (distance - line) / np.maximum(step_distance, 1e-12)
     fraction = np.minimum(np.maximum(fraction, 0.0), 1.0)
     return time - dt * fraction
-
-
-def all_wheels_off(lateral: FloatArray, width_left: FloatArray,
-                   width_right: FloatArray) -> BoolArray:
-    """Return True where every wheel is off the track surface (DeepRacer's off-track rule).
-
-    Args:
-        lateral: Signed lateral offset of each wheel, shape (..., W), metres, left positive.
-        width_left: Track width left of the centre line at each wheel, shape (..., W).
-        width_right: Track width right of the centre line at each wheel, shape (..., W).
-
-    Returns:
-        Shape (...): True when no wheel is on the surface; a car partly off is on track.
-    """
-    on = (lateral <= width_left) & (lateral >= -width_right)
-    return ~np.any(on, axis=-1)
-
-
-def consecutive(count: IntArray, condition: BoolArray) -> IntArray:
-    """Count consecutive steps for which ``condition`` held (reset to 0 when it fails).
-
-    >>> consecutive(np.array([3, 3]), np.array([True, False])).tolist()
-    [4, 0]
-    """
-    return (count + 1) * condition
 
 
 def judge_contacts(body_a: IntArray, body_b: IntArray, num_envs: int, num_cars: int,
@@ -139,76 +109,232 @@ def judge_contacts(body_a: IntArray, body_b: IntArray, num_envs: int, num_cars: 
     return at_fault, collided, events
 
 
-def race_order_key(distance: FloatArray, finished: BoolArray, finish_time: FloatArray,
-                   best_lap: FloatArray, ranking: str) -> FloatArray:
-    """Return a key per car whose ascending order is the race order (leader first).
+def race_ranks(distance: FloatArray, finished: BoolArray, finish_time: FloatArray,
+               best_lap: FloatArray, ranking: str) -> IntArray:
+    """Return each car's race position (1 = leader), shape (E, N).
 
     ``total_time``: finished cars first, by finish time; then by distance driven.
-    ``best_lap``: by best valid lap time; cars without one by distance driven.
-    """
-    if ranking == "best_lap":
-        has_lap = np.isfinite(best_lap)
-        return np.where(has_lap, best_lap - 1e9, -distance)
-    return np.where(finished, finish_time - 1e12, -distance)
+    ``best_lap``: by best valid lap time; cars without one after them, by distance driven.
+    Exact ties go to the lower car index.
 
-
-def ranks(key: FloatArray) -> IntArray:
-    """Return 1-based ranks along the last axis from an ascending key (ties: lower index).
-
-    >>> ranks(np.array([[-3.0, -5.0, -4.0]])).tolist()
+    >>> race_ranks(np.array([[3.0, 5.0, 4.0]]), np.zeros((1, 3), bool), np.full((1, 3), np.inf),
+    ...            np.full((1, 3), np.inf), "total_time").tolist()
     [[3, 1, 2]]
     """
-    # The rank of a car is the position of its index in the sorted order: argsort of argsort.
-    order = np.argsort(key, axis=-1, kind="stable")
-    return np.argsort(order, axis=-1, kind="stable") + 1
+    out = np.empty(distance.shape, dtype=np.int64)
+    _rank_kernel(distance, finished, finish_time, best_lap, ranking == "best_lap", out)
+    return out
 
 
-def pairwise_gap(distance: FloatArray) -> FloatArray:
-    """Return ``gap[e, i, j] = distance[e, i] - distance[e, j]`` (positive: i ahead of j)."""
-    return distance[:, :, None] - distance[:, None, :]
+@njit(cache=True, inline="always")
+def _order_key(distance, finished, finish_time, best_lap, by_best_lap):  # pragma: no cover
+    # Ascending key: finished cars (or cars with a valid lap) first, by time, then by distance.
+    if by_best_lap:
+        return (0.0, best_lap) if best_lap < np.inf else (1.0, -distance)
+    return (0.0, finish_time) if finished else (1.0, -distance)
 
 
-def detect_overtakes(prev_gap: FloatArray, gap: FloatArray, eligible: BoolArray,
-                     length: float) -> BoolArray:
-    """Return ``passed[e, i, j]``: car i passed car j on track during this step.
+@njit(cache=True)
+def _rank_kernel(distance, finished, finish_time, best_lap, by_best_lap, out):  # pragma: no cover
+    # rank_i = 1 + the number of cars ordered before i (smaller key, or equal key and lower
+    # index): O(N^2) per env copy, which beats sorting for the few cars of a race.
+    for e in range(distance.shape[0]):
+        for i in range(distance.shape[1]):
+            ki = _order_key(distance[e, i], finished[e, i], finish_time[e, i], best_lap[e, i],
+                            by_best_lap)
+            r = 1
+            for j in range(distance.shape[1]):
+                kj = _order_key(distance[e, j], finished[e, j], finish_time[e, j],
+                                best_lap[e, j], by_best_lap)
+                if kj < ki or (kj == ki and j < i):
+                    r += 1
+            out[e, i] = r
 
-    A pass is a change of the gap from behind (< 0) to ahead (> 0) while both cars were
-    racing before and after the step and neither was re-placed (``eligible[e, i, j]``),
-    and the gap stayed below half a lap (so a lapped car is not 'passed' by a jump).
-    """
-    close = np.abs(gap) < 0.5 * length
-    return (prev_gap < 0.0) & (gap > 0.0) & eligible & close
 
+def overtakes_and_defences(distance: FloatArray, prev_gap: FloatArray, eligible: BoolArray,
+                           speed: FloatArray, pressure: FloatArray, faster: BoolArray,
+                           length: float, dt: float, gap_limit: float, time_limit: float,
+                           ) -> tuple[FloatArray, BoolArray, BoolArray]:
+    """Detect on-track passes and completed defences between every pair of cars.
 
-def update_pressure(pressure: FloatArray, faster: BoolArray, gap: FloatArray,
-                    speed: FloatArray, eligible: BoolArray, passed: BoolArray, dt: float,
-                    gap_limit: float, time_limit: float,
-                    ) -> tuple[FloatArray, BoolArray, BoolArray]:
-    """Track attackers close behind a car and count successful defences.
+    With ``gap[e, i, j] = distance[e, i] - distance[e, j]`` (positive: i ahead of j):
 
-    Car i pressures car j when it is racing less than ``gap_limit`` metres behind it
-    (``0 < -gap[e, i, j] < gap_limit``). A defence by j against i is counted when i stops
-    pressuring j after at least ``time_limit`` seconds of pressure, having been the faster
-    car at some moment of it, without passing.
+    - car i **passed** car j when the gap changed from behind (< 0) to ahead (> 0) while both
+      were racing before and after the step and neither was re-placed (``eligible[e, i]``
+      and ``eligible[e, j]``), and the gap stayed below half a lap (a lapped car is not
+      passed by a jump of one lap);
+    - car i **pressures** car j while racing less than ``gap_limit`` metres behind it;
+      ``pressure`` counts the seconds, ``faster`` whether i was faster than j at some moment
+      of it. A **defence** by j against i is counted when i stops pressuring j after at least
+      ``time_limit`` seconds, having been faster at some moment, without passing.
 
     Args:
-        pressure: Seconds of continuous pressure by i on j, shape (E, N, N).
-        faster: Whether i was faster than j at some moment of the current pressure.
-        gap: Current pairwise gap, shape (E, N, N), metres.
-        speed: Forward speed of each car, shape (E, N), m/s.
-        eligible: Both cars racing, shape (E, N, N).
-        passed: Overtakes this step, shape (E, N, N).
+        distance: Race distance after the step, (E, N) [m].
+        prev_gap: ``gap`` before the step, (E, N, N) [m].
+        eligible: Cars racing before and after the step and not re-placed, (E, N).
+        speed: Forward speed after the step, (E, N) [m/s].
+        pressure: Seconds of continuous pressure by i on j, (E, N, N); updated in place.
+        faster: Whether i was faster than j during the current pressure; updated in place.
+        length: Lap length [m].
         dt: Step length [s].
         gap_limit: Pressure distance [m].
         time_limit: Pressure duration that makes a defence [s].
 
     Returns:
-        ``(pressure, faster, defended)`` with ``defended[e, i, j]`` True when j completed a
-        defence against i on this step.
+        ``(gap (E, N, N), passed (E, N, N), defended (E, N, N))`` with ``passed[e, i, j]``:
+        i passed j on this step, ``defended[e, i, j]``: j completed a defence against i.
     """
-    close = eligible & (gap < 0.0) & (gap > -gap_limit)
-    quicker = speed[:, :, None] > speed[:, None, :]
-    ended = (~close) & (pressure >= time_limit) & faster & ~passed
-    pressure = np.where(close, pressure + dt, 0.0)
-    faster = close & (faster | quicker)
-    return pressure, faster, ended
+    e, n = distance.shape
+    gap = np.empty((e, n, n))
+    passed = np.zeros((e, n, n), dtype=np.bool_)
+    defended = np.zeros((e, n, n), dtype=np.bool_)
+    _pairs_kernel(distance, prev_gap, eligible, speed, pressure, faster, length, dt, gap_limit,
+                  time_limit, gap, passed, defended)
+    return gap, passed, defended
+
+
+def pairs_kernel(*args):  # pragma: no cover
+    """The compiled kernel behind :func:`overtakes_and_defences` (for the core's hot path).
+
+    Same arguments, plus the outputs ``gap``, ``passed``, ``defended``; returns
+    ``(any passed, any defended)``.
+    """
+    return _pairs_kernel(*args)
+
+
+@njit(cache=True)
+def _pairs_kernel(distance, prev_gap, eligible, speed, pressure, faster, length, dt, gap_limit,
+                  time_limit, gap, passed, defended):  # pragma: no cover
+    half = 0.5 * length
+    any_passed = False
+    any_defended = False
+    for e in range(distance.shape[0]):
+        for i in range(distance.shape[1]):
+            for j in range(distance.shape[1]):
+                g = distance[e, i] - distance[e, j]
+                gap[e, i, j] = g
+                if i == j:
+                    continue
+                both = eligible[e, i] and eligible[e, j]
+                did_pass = both and prev_gap[e, i, j] < 0.0 < g and abs(g) < half
+                passed[e, i, j] = did_pass
+                any_passed = any_passed or did_pass
+                close = both and -gap_limit < g < 0.0
+                if (not close and pressure[e, i, j] >= time_limit and faster[e, i, j]
+                        and not did_pass):
+                    defended[e, i, j] = True
+                    any_defended = True
+                if close:
+                    pressure[e, i, j] += dt
+                    faster[e, i, j] = faster[e, i, j] or speed[e, i] > speed[e, j]
+                else:
+                    pressure[e, i, j] = 0.0
+                    faster[e, i, j] = False
+    return any_passed, any_defended
+
+
+@njit(cache=True)
+def advance_cars(body_state, env_offset, wheels, racing, done, time, steps, time_limit,
+                 max_cycles, dt, position, yaw, velocity, yaw_rate,
+                 speed, s, d, distance, lap_origin, laps, reverse_count, immobile_count,
+                 reversed_steps, immobilised_steps, immobile_distance, points, s_points, d_points,
+                 proj_origin, proj_inv_cell, proj_hi, proj_ny, proj_start, proj_cert, proj_tab,
+                 proj_window, proj_tab_full, width_left, width_right, inv_ds, length,
+                 step_distance, off_track, reversed_, immobilised, new_laps):  # pragma: no cover
+    """Read the physics state back and apply the per-car rules, for every car at once.
+
+    For each car (E, N), given pymunk's state ``body_state`` (E * N + ..., 6) =
+    (x, y, angle, vx, vy, angular velocity) in the shared Space:
+
+    - position, yaw (wrapped into [-pi, pi)), velocity, yaw rate and forward ``speed`` in
+      track coordinates;
+    - the centre and the wheel centres (``wheels`` (W, 2) in the body frame) are projected
+      onto the centre line (racing cars only);
+    - ``step_distance``: centre-line progress since the last step, wrapped into
+      [-L/2, L/2) (0 for cars not racing), added to ``distance``;
+    - ``off_track``: racing and every wheel outside [-width_right(s), width_left(s)]
+      (DeepRacer: all four wheels off; partly off is on track);
+    - ``reverse_count`` / ``immobile_count``: consecutive racing steps with negative progress
+      / with a displacement of at most ``immobile_distance`` metres; ``reversed_`` and
+      ``immobilised`` when they reach ``reversed_steps`` / ``immobilised_steps``;
+    - ``new_laps``: complete laps since ``lap_origin``, floor((distance - origin) / L), never
+      fewer than ``laps``.
+
+    The clock ``time`` and step count ``steps`` (E,) advance for env copies with a car not
+    done.
+
+    Returns:
+        ``(event, out_of_time)``: whether any car went off track, reversed, was immobilised
+        or completed a lap; whether any env copy reached ``time_limit`` or ``max_cycles``.
+    """
+    half = 0.5 * length
+    num_envs, num_cars = s.shape
+    num_wheels = wheels.shape[0]
+    event = False
+    out_of_time = False
+    for e in range(num_envs):
+        active = False
+        for i in range(num_cars):
+            active = active or not done[e, i]
+        if active:
+            time[e] += dt
+            steps[e] += 1
+        out_of_time = out_of_time or time[e] >= time_limit or steps[e] >= max_cycles
+        for i in range(num_cars):
+            k = e * num_cars + i
+            x = body_state[k, 0] - env_offset[e, 0]
+            y = body_state[k, 1] - env_offset[e, 1]
+            moved = math.hypot(x - position[e, i, 0], y - position[e, i, 1])
+            position[e, i, 0] = x
+            position[e, i, 1] = y
+            angle = body_state[k, 2]
+            angle = angle - 2.0 * math.pi * math.floor((angle + math.pi) / (2.0 * math.pi))
+            yaw[e, i] = angle
+            c = math.cos(angle)
+            sn = math.sin(angle)
+            velocity[e, i, 0] = body_state[k, 3]
+            velocity[e, i, 1] = body_state[k, 4]
+            yaw_rate[e, i] = body_state[k, 5]
+            speed[e, i] = c * body_state[k, 3] + sn * body_state[k, 4]
+            if not racing[e, i]:
+                step_distance[e, i] = 0.0
+                off_track[e, i] = False
+                reversed_[e, i] = False
+                immobilised[e, i] = False
+                reverse_count[e, i] = 0
+                immobile_count[e, i] = 0
+                new_laps[e, i] = laps[e, i]
+                continue
+            points[0, 0] = x
+            points[0, 1] = y
+            for w in range(num_wheels):
+                points[1 + w, 0] = x + c * wheels[w, 0] - sn * wheels[w, 1]
+                points[1 + w, 1] = y + sn * wheels[w, 0] + c * wheels[w, 1]
+            project_kernel(points, _EVERY_POINT, proj_origin, proj_inv_cell, proj_hi, proj_ny,
+                            proj_start, proj_cert, proj_tab, proj_window, proj_tab_full, length,
+                            s_points, d_points)
+            ds = s_points[0] - s[e, i]
+            ds = ds - length * math.floor((ds + half) / length)
+            step_distance[e, i] = ds
+            distance[e, i] += ds
+            s[e, i] = s_points[0]
+            d[e, i] = d_points[0]
+            any_on = False
+            for w in range(1, num_wheels + 1):
+                sw = s_points[w]
+                dw = d_points[w]
+                if (dw <= lookup(width_left, sw, inv_ds, length)
+                        and dw >= -lookup(width_right, sw, inv_ds, length)):
+                    any_on = True
+                    break
+            off_track[e, i] = not any_on
+            reverse_count[e, i] = reverse_count[e, i] + 1 if ds < 0.0 else 0
+            immobile_count[e, i] = immobile_count[e, i] + 1 if moved <= immobile_distance else 0
+            reversed_[e, i] = reverse_count[e, i] >= reversed_steps
+            immobilised[e, i] = immobile_count[e, i] >= immobilised_steps
+            lap = int(math.floor((distance[e, i] - lap_origin[e, i]) / length))
+            new_laps[e, i] = max(lap, laps[e, i])
+            if (not any_on or reversed_[e, i] or immobilised[e, i]
+                    or new_laps[e, i] > laps[e, i]):
+                event = True
+    return event, out_of_time

@@ -22,10 +22,10 @@ def race_results(core: RaceCore, env_index: int, agents: list[str]) -> list[dict
     ``collisions``, ``overtakes``, ``defences``, ``distance``.
     """
     e = env_index
-    key = race.race_order_key(core.distance[e:e + 1], core.finished[e:e + 1],
-                              core.finish_time[e:e + 1], core.best_lap_time[e:e + 1],
-                              core.rules.ranking)[0]
-    order = np.argsort(key, kind="stable").tolist()
+    rank = race.race_ranks(core.distance[e:e + 1], core.finished[e:e + 1],
+                           core.finish_time[e:e + 1], core.best_lap_time[e:e + 1],
+                           core.rules.ranking)[0]
+    order = np.argsort(rank, kind="stable").tolist()
     rows = []
     for position, car in enumerate(order, start=1):
         rows.append({

@@ -35,8 +35,10 @@ FloatArray = npt.NDArray[np.float64]
 
 
 def reward_terms(weights: RewardConfig, events: StepEvents, speed: FloatArray,
-                 racing: npt.NDArray[np.bool_]) -> dict[str, FloatArray]:
+                 racing: npt.NDArray[np.bool_]) -> dict[str, FloatArray | None]:
     """Return each weighted reward term, shape (E, N), keyed by term name.
+
+    Terms whose weight is 0 are not computed and map to None (they contribute 0).
 
     Args:
         weights: Term weights.
@@ -44,21 +46,23 @@ def reward_terms(weights: RewardConfig, events: StepEvents, speed: FloatArray,
         speed: Forward speed after the step, (E, N), m/s.
         racing: Cars that were racing during the step, (E, N).
     """
-    return {
-        "progress": weights.progress * events.progress,
-        "speed": weights.speed * speed * racing,
-        "off_track": weights.off_track * events.off_track,
-        "crash": weights.crash * events.crashed,
-        "overtake": weights.overtake * (events.overtakes - events.overtaken),
-        "lap": weights.lap * events.lap_completed,
-        "time": weights.time * racing,
+    values = {
+        "progress": lambda: events.progress,
+        "speed": lambda: speed * racing,
+        "off_track": lambda: events.off_track,
+        "crash": lambda: events.crashed,
+        "overtake": lambda: events.overtakes - events.overtaken,
+        "lap": lambda: events.lap_completed,
+        "time": lambda: racing,
     }
+    return {name: (weight * value() if (weight := getattr(weights, name)) else None)
+            for name, value in values.items()}
 
 
-def total_reward(terms: dict[str, FloatArray]) -> FloatArray:
-    """Sum the weighted terms, shape (E, N)."""
-    values = iter(terms.values())
-    total = np.array(next(values), dtype=np.float64)
-    for value in values:
-        total = total + value
+def total_reward(terms: dict[str, FloatArray | None], shape: tuple[int, ...]) -> FloatArray:
+    """Sum the weighted terms into an array of ``shape`` (E, N)."""
+    total = np.zeros(shape)
+    for value in terms.values():
+        if value is not None:
+            total += value
     return total

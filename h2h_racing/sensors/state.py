@@ -8,7 +8,7 @@ index       feature                                                       scale
 ==========  ============================================================  =================
 0           forward speed                                                 / max speed
 1           lateral (sideslip) speed                                      / max speed
-2           yaw rate                                                      / 2*pi rad/s
+2           yaw rate                                                      / 2 pi rad/s
 3           steering angle                                                / max steer
 4           lateral offset from the centre line (left +)                  / half-width
 5, 6        sin, cos of the heading error (car yaw - track heading)       -
@@ -16,26 +16,30 @@ index       feature                                                       scale
 15, 16      track half-width left, right                                  / 0.5 m
 17          race position (0 = leader, 1 = last)                          -
 18          frozen by a penalty (1) or racing (0)                         -
-then per opponent slot (nearest first by track distance, ``opponent_slots`` of them):
+then per opponent slot (nearest first by track distance within 5 m, ``opponent_slots``):
 +0          present (1) or empty slot (0)                                 -
 +1          arc gap to it, ahead positive                                 / 5 m
 +2          its lateral offset minus ours                                 / 1 m
 +3          its forward speed minus ours                                  / max speed
-then per obstacle slot (nearest ahead within 5 m first, ``obstacle_slots`` of them):
+then per obstacle slot (nearest ahead within 5 m first, ``obstacle_slots``):
 +0          present (1) or empty slot (0)                                 -
 +1          arc distance ahead                                            / 5 m
 +2          its lateral offset minus ours                                 / 1 m
 ==========  ============================================================  =================
+
+Empty slots are all zeros. Ties in distance go to the lower car or obstacle index.
 """
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
+from numba import njit
 
-from h2h_racing.race import wrap_arc
+from h2h_racing.track_lookup import lookup, wrap_angle
 
 if TYPE_CHECKING:
     from h2h_racing.core import RaceCore
@@ -58,59 +62,99 @@ def state_size(opponent_slots: int, obstacle_slots: int) -> int:
 
 def state_observation(core: RaceCore) -> npt.NDArray[np.float32]:
     """Return the state observation of every car, shape (E, N, F), float32."""
-    cfg, track = core.config, core.track
-    e, n = core.num_envs, core.num_cars
-    m_slots, k_slots = cfg.opponent_slots, cfg.obstacle_slots
-    out = np.zeros((e, n, state_size(m_slots, k_slots)), dtype=np.float64)
-    inv_v = 1.0 / cfg.car.max_speed
-    s, d = core.s, core.d
-    heading = track.heading_at(s)
-    sin_yaw, cos_yaw = np.sin(core.yaw), np.cos(core.yaw)
-    lateral_speed = cos_yaw * core.velocity[..., 1] - sin_yaw * core.velocity[..., 0]
-    error = core.yaw - heading
-    left, right = track.half_widths_at(s)
-    out[..., 0] = core.speed * inv_v
-    out[..., 1] = lateral_speed * inv_v
-    out[..., 2] = core.yaw_rate * (1.0 / (2.0 * np.pi))
-    out[..., 3] = core.steer * (1.0 / cfg.car.max_steer)
-    out[..., 4] = d / np.where(d >= 0.0, left, right)
-    out[..., 5] = np.sin(error)
-    out[..., 6] = np.cos(error)
-    out[..., 7:15] = 0.5 * track.curvature_at(s[..., None] + LOOKAHEAD)
-    out[..., 15] = left * 2.0
-    out[..., 16] = right * 2.0
-    if n > 1:
-        out[..., 17] = (core.rank - 1) * (1.0 / (n - 1))
-    out[..., 18] = core.frozen
-    col = BASE_FEATURES
-    if m_slots and n > 1:
-        gap = wrap_arc(s[:, None, :] - s[:, :, None], track.length)  # gap[e, i, j]: j ahead of i
-        hidden = np.eye(n, dtype=bool)[None] | core.done[:, None, :] | (np.abs(gap) > SENSE_RANGE)
-        order = np.argsort(np.where(hidden, np.inf, np.abs(gap)), axis=2)[:, :, :m_slots]
-        pick_gap = np.take_along_axis(gap, order, axis=2)
-        present = ~np.take_along_axis(hidden, order, axis=2)
-        other_d = np.take_along_axis(np.broadcast_to(d[:, None, :], (e, n, n)), order, axis=2)
-        other_v = np.take_along_axis(np.broadcast_to(core.speed[:, None, :], (e, n, n)),
-                                     order, axis=2)
-        slots = out[..., col:col + OPPONENT_FEATURES * order.shape[2]].reshape(
-            e, n, order.shape[2], OPPONENT_FEATURES)
-        slots[..., 0] = present
-        slots[..., 1] = pick_gap * (1.0 / SENSE_RANGE) * present
-        slots[..., 2] = (other_d - d[..., None]) * present
-        slots[..., 3] = (other_v - core.speed[..., None]) * inv_v * present
-    col += OPPONENT_FEATURES * m_slots
-    if k_slots and core.num_obstacles:
-        ahead = np.mod(core.obstacle_s[:, None, :] - s[..., None], track.length)
-        hidden = ahead > SENSE_RANGE
-        order = np.argsort(np.where(hidden, np.inf, ahead), axis=2)[:, :, :k_slots]
-        present = ~np.take_along_axis(hidden, order, axis=2)
-        od = np.take_along_axis(np.broadcast_to(core.obstacle_d[:, None, :],
-                                                (e, n, core.num_obstacles)), order, axis=2)
-        slots = out[..., col:col + OBSTACLE_FEATURES * order.shape[2]].reshape(
-            e, n, order.shape[2], OBSTACLE_FEATURES)
-        slots[..., 0] = present
-        slots[..., 1] = np.take_along_axis(ahead, order, axis=2) * (1.0 / SENSE_RANGE) * present
-        slots[..., 2] = (od - d[..., None]) * present
-    np.minimum(out, OBS_BOUND, out=out)
-    np.maximum(out, -OBS_BOUND, out=out)
-    return out.astype(np.float32)
+    cfg = core.config
+    lut = core.lookup
+    out = np.empty((core.num_envs, core.num_cars,
+                    state_size(cfg.opponent_slots, cfg.obstacle_slots)), dtype=np.float32)
+    _state_kernel(core.s, core.d, core.yaw, core.velocity, core.yaw_rate, core.steer,
+                  core.speed, core.rank, core._racing, core.done, core.obstacle_s,
+                  core.obstacle_d, lut.heading, lut.curvature, lut.width_left, lut.width_right,
+                  lut.inv_ds, lut.length, cfg.car.max_speed, cfg.car.max_steer,
+                  cfg.opponent_slots, cfg.obstacle_slots, LOOKAHEAD, out)
+    return out
+
+
+@njit(cache=True, inline="always")
+def _clip(value: float) -> float:  # pragma: no cover
+    return min(max(value, -OBS_BOUND), OBS_BOUND)
+
+
+@njit(cache=True)
+def _state_kernel(s, d, yaw, velocity, yaw_rate, steer, speed, rank, racing, done,
+                  obstacle_s, obstacle_d, heading, curvature, width_left, width_right,
+                  inv_ds, length, max_speed, max_steer, m_slots, k_slots, lookahead,
+                  out):  # pragma: no cover
+    """Compiled loop over env copies and cars filling ``out`` (E, N, F)."""
+    num_envs, num_cars = s.shape
+    num_obstacles = obstacle_s.shape[1]
+    inv_v = 1.0 / max_speed
+    half = 0.5 * length
+    gaps = np.empty(num_cars)
+    ahead = np.empty(max(num_obstacles, 1))
+    for e in range(num_envs):
+        for i in range(num_cars):
+            si = s[e, i]
+            di = d[e, i]
+            c = math.cos(yaw[e, i])
+            sn = math.sin(yaw[e, i])
+            left = lookup(width_left, si, inv_ds, length)
+            right = lookup(width_right, si, inv_ds, length)
+            error = wrap_angle(yaw[e, i] - lookup(heading, si, inv_ds, length))
+            row = out[e, i]
+            row[0] = _clip(speed[e, i] * inv_v)
+            row[1] = _clip((c * velocity[e, i, 1] - sn * velocity[e, i, 0]) * inv_v)
+            row[2] = _clip(yaw_rate[e, i] / (2.0 * math.pi))
+            row[3] = _clip(steer[e, i] / max_steer)
+            row[4] = _clip(di / (left if di >= 0.0 else right))
+            row[5] = math.sin(error)
+            row[6] = math.cos(error)
+            for k in range(lookahead.shape[0]):
+                row[7 + k] = _clip(0.5 * lookup(curvature, si + lookahead[k], inv_ds, length))
+            row[15] = _clip(2.0 * left)
+            row[16] = _clip(2.0 * right)
+            row[17] = (rank[e, i] - 1) / (num_cars - 1) if num_cars > 1 else 0.0
+            row[18] = 0.0 if (racing[e, i] or done[e, i]) else 1.0
+            col = 19
+            # Opponents: the m_slots nearest by |arc gap| within SENSE_RANGE.
+            for j in range(num_cars):
+                gap = s[e, j] - si
+                gap = gap - length * math.floor((gap + half) / length)
+                gaps[j] = abs(gap) if (j != i and not done[e, j]
+                                       and abs(gap) <= SENSE_RANGE) else np.inf
+            for slot in range(m_slots):
+                best = -1
+                for j in range(num_cars):
+                    if gaps[j] < np.inf and (best < 0 or gaps[j] < gaps[best]):
+                        best = j
+                base = col + 4 * slot
+                if best < 0:
+                    for f in range(4):
+                        row[base + f] = 0.0
+                    continue
+                gap = s[e, best] - si
+                gap = gap - length * math.floor((gap + half) / length)
+                row[base] = 1.0
+                row[base + 1] = _clip(gap / SENSE_RANGE)
+                row[base + 2] = _clip(d[e, best] - di)
+                row[base + 3] = _clip((speed[e, best] - speed[e, i]) * inv_v)
+                gaps[best] = np.inf
+            col += 4 * m_slots
+            # Obstacles: the k_slots nearest ahead within SENSE_RANGE.
+            for k in range(num_obstacles):
+                a = obstacle_s[e, k] - si
+                a = a - length * math.floor(a / length)
+                ahead[k] = a if a <= SENSE_RANGE else np.inf
+            for slot in range(k_slots):
+                best = -1
+                for k in range(num_obstacles):
+                    if ahead[k] < np.inf and (best < 0 or ahead[k] < ahead[best]):
+                        best = k
+                base = col + 3 * slot
+                if best < 0:
+                    for f in range(3):
+                        row[base + f] = 0.0
+                    continue
+                row[base] = 1.0
+                row[base + 1] = ahead[best] / SENSE_RANGE
+                row[base + 2] = _clip(obstacle_d[e, best] - di)
+                ahead[best] = np.inf

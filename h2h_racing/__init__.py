@@ -1,0 +1,29 @@
+"""h2h-racing: multi-agent head-to-head racing for reinforcement learning.
+
+>>> import h2h_racing
+>>> env = h2h_racing.parallel_env(track="oval", num_cars=2)
+>>> obs, infos = env.reset(seed=0)
+>>> sorted(obs)
+['car_0', 'car_1']
+"""
+
+from h2h_racing.config import CarParams, EnvConfig, RaceRules, RewardConfig
+from h2h_racing.core import RaceCore
+from h2h_racing.env import RacingEnv, env, parallel_env
+from h2h_racing.track import Track
+from h2h_racing.track_io import load_track
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "CarParams",
+    "EnvConfig",
+    "RaceCore",
+    "RaceRules",
+    "RacingEnv",
+    "RewardConfig",
+    "Track",
+    "env",
+    "load_track",
+    "parallel_env",
+]
