@@ -1,0 +1,320 @@
+"""Racing lines: a minimum-curvature path within the track and a speed profile along it.
+
+A racing line is a lateral offset ``d*(s)`` from the centre line on a uniform grid of
+centre-line arc positions ``s_i = i L / K``. With ``C_i`` the centre point and ``n_i`` the
+left normal at ``s_i``, the line's points are ``P_i = C_i + d_i n_i``: linear in ``d``.
+The line minimises the summed squared second differences of its points (a discrete
+curvature energy; for near-uniform spacing ``|P_{i+1} - 2 P_i + P_{i-1}| ~ kappa_i ds^2``)
+
+    minimise   sum_i |P_{i+1}(d) - 2 P_i(d) + P_{i-1}(d)|^2 + eps |d|^2
+    subject to -(w_right(s_i) - margin) <= d_i <= w_left(s_i) - margin,
+
+a box-constrained convex quadratic programme, solved exactly by block principal pivoting
+(Judice & Pires, *A block principal pivoting algorithm for large-scale strictly monotone
+linear complementarity problems*, 1994). This is the min-curvature formulation of
+Braghin et al. (2008) and Heilmeier et al. (2019), without their splines.
+
+The speed profile is the classic quasi-steady-state one: the cornering limit
+``v = min(v_max, sqrt(a_lat / |kappa|))`` followed by a backward (braking) and a forward
+(acceleration) pass over the closed loop; see :func:`speed_profile`.
+
+Pure numpy; results are cached per ``Track`` object (tracks are immutable).
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from h2h_racing.config import CarParams
+from h2h_racing.track import Track
+
+FloatArray = npt.NDArray[np.float64]
+
+GRAVITY = 9.81
+"""Standard gravity [m/s^2]."""
+
+_CACHE: weakref.WeakKeyDictionary[Track, dict[tuple[float, ...], RaceLine]] = (
+    weakref.WeakKeyDictionary())
+
+
+@dataclass(frozen=True, eq=False)
+class RaceLine:
+    """A closed racing line on a track with its speed profile (arrays owned, read-only).
+
+    Attributes:
+        s: Centre-line arc position of each grid point, shape (K,) [m], uniform in [0, L).
+        d: Lateral offset of the line from the centre line, shape (K,) [m], left positive.
+        points: World points of the line, shape (K, 2) [m].
+        curvature: Signed curvature of the line at each point, shape (K,) [1/m].
+        path_length: Length of the line itself (not the centre line) [m].
+        speed: Target speed at each point, shape (K,) [m/s].
+        lap_time: Lap time of the speed profile driven exactly [s] (a lower bound for a
+            real car, which lags the profile).
+        track_length: Centre-line length L [m].
+    """
+
+    s: FloatArray
+    d: FloatArray
+    points: FloatArray
+    curvature: FloatArray
+    path_length: float
+    speed: FloatArray
+    lap_time: float
+    track_length: float
+
+    def _interp(self, values: FloatArray, s: FloatArray) -> FloatArray:
+        """Periodic linear interpolation of a per-grid-point quantity at arc positions ``s``."""
+        grid = np.append(self.s, self.track_length)
+        closed = np.append(values, values[0])
+        return np.interp(np.remainder(s, self.track_length), grid, closed)
+
+    def offset_at(self, s: FloatArray) -> FloatArray:
+        """Return the line's lateral offset [m] at centre-line arc positions ``s`` (any shape)."""
+        return self._interp(self.d, s)
+
+    def speed_at(self, s: FloatArray) -> FloatArray:
+        """Return the profile speed [m/s] at centre-line arc positions ``s`` (any shape)."""
+        return self._interp(self.speed, s)
+
+    def point_at(self, s: FloatArray) -> FloatArray:
+        """Return the line's world points at arc positions ``s``, shape (..., 2) [m]."""
+        return np.stack([self._interp(self.points[:, 0], s),
+                         self._interp(self.points[:, 1], s)], axis=-1)
+
+    def min_speed_ahead(self, s: FloatArray, horizon: FloatArray) -> FloatArray:
+        """Return the lowest profile speed over ``[s, s + horizon]`` (both shape (E,)) [m/s].
+
+        The window is sampled on the grid spacing, so no corner between samples is missed.
+        """
+        ds = self.track_length / len(self.s)
+        count = max(1, math.ceil(float(np.max(horizon, initial=0.0)) / ds)) + 1
+        frac = np.linspace(0.0, 1.0, count)
+        samples = s[..., None] + horizon[..., None] * frac
+        return self.speed_at(samples).min(axis=-1)
+
+
+def min_curvature_offsets(track: Track, ds: float = 0.2, margin: float = 0.12,
+                          regularisation: float = 1e-4, reweightings: int = 3,
+                          peak_emphasis: float = 0.0,
+                          ) -> tuple[FloatArray, FloatArray]:
+    """Return the minimum-curvature lateral offsets of ``track`` (see the module docstring).
+
+    The grid is uniform in centre-line ``s``, but the line's own spacing is not: on the
+    inside of a corner it is shorter by ``1 - kappa d``, and an unweighted sum of squared
+    second differences would under-count that part (``|D2 P| ~ kappa l^2``). The discrete
+    bending energy ``sum kappa_i^2 l_i = sum |D2 P_i|^2 / l_i^3`` is therefore minimised by
+    iterative re-weighting: each pass weights point i by ``(ds / l_i)^3`` from the previous
+    pass's line.
+
+    Args:
+        track: The track.
+        ds: Target grid spacing along the centre line [m].
+        margin: Distance kept from each border by the line's centre [m].
+        regularisation: Weight of ``|d|^2`` relative to the curvature energy; it makes the
+            problem strictly convex and keeps the line central where curvature does not
+            care (on long straights).
+        reweightings: Re-weighting passes after the first solve.
+
+    Returns:
+        ``(s, d)``: the grid, shape (K,) [m], and the offsets, shape (K,) [m].
+
+    Raises:
+        ValueError: If the track is narrower than ``2 * margin`` somewhere.
+    """
+    length = track.length
+    k = max(8, round(length / ds))
+    step = length / k
+    s = np.arange(k) * step
+    left, right = track.half_widths_at(s)
+    hi = left - margin
+    lo = -(right - margin)
+    if np.any(hi < lo):
+        raise ValueError(f"track {track.name!r} is narrower than 2 * margin = {2 * margin} m "
+                         f"somewhere; use a smaller margin")
+    centre = track.point_at(s, 0.0)
+    psi = track.heading_at(s)
+    normal = np.stack([-np.sin(psi), np.cos(psi)], axis=1)
+    # Second difference D2 (K x K, circulant). The points' second differences are
+    # D2 C + D2 diag(n) d = b + A d, with A = [D2 diag(n_x); D2 diag(n_y)] (2K x K).
+    eye = np.eye(k)
+    d2 = np.roll(eye, 1, axis=1) - 2.0 * eye + np.roll(eye, -1, axis=1)
+    a = np.vstack([d2 * normal[:, 0][None, :], d2 * normal[:, 1][None, :]]) / step**2
+    b = np.concatenate([d2 @ centre[:, 0], d2 @ centre[:, 1]]) / step**2
+    d = np.zeros(k)
+    for _ in range(reweightings + 1):
+        points = centre + d[:, None] * normal
+        seg = np.hypot(*(np.roll(points, -1, axis=0) - points).T)
+        local = 0.5 * (seg + np.roll(seg, 1))
+        weight = (step / local) ** 3
+        if peak_emphasis > 0 and np.any(d):
+            kappa, _ = line_curvature(points)
+            weight = weight * (np.abs(kappa) / np.mean(np.abs(kappa))) ** peak_emphasis
+        weight = np.tile(weight, 2)
+        hess = (a.T * weight) @ a + regularisation * eye
+        lin = (a.T * weight) @ b
+        d = _box_qp(hess, lin, lo, hi, d, rho=1e-4 * (step / 0.1) ** 4)
+    return s, d
+
+
+def _box_qp(hess: FloatArray, lin: FloatArray, lo: FloatArray, hi: FloatArray,
+            start: FloatArray, rho: float, tolerance: float = 1e-6,
+            max_iterations: int = 20_000,
+            ) -> FloatArray:
+    """Minimise ``x'Hx/2 + lin'x`` subject to ``lo <= x <= hi`` (H positive definite).
+
+    ADMM on the splitting ``x = z, z in [lo, hi]`` with over-relaxation (Boyd et al.,
+    *Distributed Optimization and Statistical Learning via ADMM*, 2011, sec. 5.2; the
+    OSQP iteration): ``x = (H + rho I)^-1 (rho (z - u) - lin)``,
+    ``z = clip(alpha x + (1 - alpha) z + u)``, ``u += alpha x + (1 - alpha) z_old - z``.
+    The inverse is formed once, so an iteration is one matrix-vector product.
+
+    Args:
+        hess: H, shape (K, K).
+        lin: Linear term, shape (K,).
+        lo: Lower bounds, shape (K,).
+        hi: Upper bounds, shape (K,).
+        start: Initial guess (warm start), shape (K,).
+        tolerance: Stop when the primal and dual residuals are below this [m].
+        max_iterations: Iteration cap.
+
+    Returns:
+        The minimiser, shape (K,), within the bounds.
+    """
+    rho = rho * float(np.abs(hess).sum(axis=1).max())
+    inverse = np.linalg.inv(hess + rho * np.eye(len(lin)))
+    alpha = 1.6
+    z = np.minimum(np.maximum(start, lo), hi)
+    u = np.zeros_like(z)
+    for _ in range(max_iterations):
+        x = inverse @ (rho * (z - u) - lin)
+        relaxed = alpha * x + (1.0 - alpha) * z
+        z_old = z
+        z = np.minimum(np.maximum(relaxed + u, lo), hi)
+        u = u + relaxed - z
+        if (np.max(np.abs(x - z)) < tolerance
+                and np.max(np.abs(z - z_old)) < tolerance):
+            break
+    return z
+
+
+def line_curvature(points: FloatArray, smooth: int = 2) -> tuple[FloatArray, FloatArray]:
+    """Return the signed curvature and segment lengths of a closed polyline.
+
+    Curvature at vertex i is the turn between its two segments over their mean length,
+    averaged over ``2 * smooth + 1`` vertices to remove grid noise.
+
+    Args:
+        points: Closed polyline, shape (K, 2) [m], first point not repeated.
+        smooth: Half-width of the circular moving average [vertices].
+
+    Returns:
+        ``(curvature (K,) [1/m], segment_length (K,) [m])``; segment i runs from point i
+        to point i + 1.
+    """
+    seg = np.roll(points, -1, axis=0) - points
+    seg_len = np.hypot(seg[:, 0], seg[:, 1])
+    heading = np.arctan2(seg[:, 1], seg[:, 0])
+    turn = np.mod(heading - np.roll(heading, 1) + math.pi, 2.0 * math.pi) - math.pi
+    kappa = turn / np.maximum(0.5 * (seg_len + np.roll(seg_len, 1)), 1e-9)
+    if smooth > 0:
+        width = 2 * smooth + 1
+        kappa = sum(np.roll(kappa, j) for j in range(-smooth, smooth + 1)) / width
+    return kappa, seg_len
+
+
+def speed_profile(curvature: FloatArray, seg_len: FloatArray, v_max: float, a_lat: float,
+                  a_accel: float, a_brake: float) -> FloatArray:
+    """Return the quasi-steady-state speed profile of a closed path.
+
+    ``v_i = min(v_max, sqrt(a_lat / |kappa_i|))``, then a backward pass
+    ``v_i <= sqrt(v_{i+1}^2 + 2 a_brake l_i)`` (brake in time for every corner) and a
+    forward pass ``v_{i+1} <= sqrt(v_i^2 + 2 a_accel l_i)``. Both passes start at the
+    slowest point of the loop, whose limit no pass can lower, so one sweep each is exact.
+
+    >>> speed_profile(np.array([0.0, 1.0, 0.0, 0.0]), np.ones(4), 4.0, 1.0, 1.0, 1.0).round(3).tolist()
+    [1.732, 1.0, 1.732, 2.236]
+
+    Args:
+        curvature: Curvature at each point, shape (K,) [1/m].
+        seg_len: Length of the segment from point i to point i + 1, shape (K,) [m].
+        v_max: Top speed [m/s].
+        a_lat: Lateral acceleration budget [m/s^2].
+        a_accel: Longitudinal acceleration [m/s^2].
+        a_brake: Longitudinal deceleration [m/s^2].
+
+    Returns:
+        Speed at each point, shape (K,) [m/s].
+    """
+    limit = np.minimum(v_max, np.sqrt(a_lat / np.maximum(np.abs(curvature), 1e-9)))
+    k = len(limit)
+    start = int(np.argmin(limit))
+    order = (start + np.arange(k + 1)) % k  # the loop, from the slowest point back to it
+    v = limit[order].tolist()
+    lengths = seg_len[order[:-1]].tolist()
+    for i in range(k - 1, -1, -1):
+        v[i] = min(v[i], math.sqrt(v[i + 1] ** 2 + 2.0 * a_brake * lengths[i]))
+    for i in range(k):
+        v[i + 1] = min(v[i + 1], math.sqrt(v[i] ** 2 + 2.0 * a_accel * lengths[i]))
+    out = np.empty(k)
+    out[order[:-1]] = v[:-1]
+    return out
+
+
+def compute_race_line(track: Track, car: CarParams, v_max: float, *, ds: float = 0.1,
+                      qp_ds: float = 0.2, margin: float = 0.12, peak_emphasis: float = 0.0,
+                      grip_factor: float = 0.7,
+                      accel_factor: float = 0.9, brake_factor: float = 0.6) -> RaceLine:
+    """Compute (or fetch from the per-track cache) the racing line of a track.
+
+    Args:
+        track: The track.
+        car: Car parameters (friction, acceleration and braking limits).
+        v_max: Top speed of the profile [m/s] (the env's ``config.max_speed``).
+        ds: Grid spacing of the returned line along the centre line [m].
+        qp_ds: Grid spacing of the curvature optimisation [m] (the offsets are then
+            interpolated linearly onto the ``ds`` grid).
+        margin: Distance kept from each border by the line [m]; the car body (half-width
+            0.1 m) stays on the surface when the car is on the line.
+        peak_emphasis: Exponent p of the extra weight ``(|kappa| / mean |kappa|)^p`` on
+            each point's bending energy in the re-weighting passes (0: plain minimum
+            curvature; larger values trade overall smoothness for a lower peak).
+        grip_factor: Fraction of the tyre limit ``mu g`` used in corners.
+        accel_factor: Fraction of ``car.max_accel`` used in the forward pass.
+        brake_factor: Fraction of ``car.max_brake`` used in the backward pass (the speed
+            controller only reaches full braking ``v - v_cmd`` behind the command).
+
+    Returns:
+        The racing line.
+    """
+    key = (car.friction, car.max_accel, car.max_brake, v_max, ds, qp_ds, margin, peak_emphasis,
+           grip_factor,
+           accel_factor, brake_factor)
+    per_track = _CACHE.setdefault(track, {})
+    if key in per_track:
+        return per_track[key]
+    s_coarse, d_coarse = min_curvature_offsets(track, ds=qp_ds, margin=margin,
+                                               peak_emphasis=peak_emphasis)
+    k = max(8, round(track.length / ds))
+    s = np.arange(k) * (track.length / k)
+    d = np.interp(s, np.append(s_coarse, track.length), np.append(d_coarse, d_coarse[0]))
+    left, right = track.half_widths_at(s)
+    # The bounds vary along s where the width does; clamp the interpolated line to them.
+    d = np.minimum(np.maximum(d, -(right - margin)), left - margin)
+    points = track.point_at(s, d)
+    kappa, seg_len = line_curvature(points, smooth=max(1, round(qp_ds / ds)))
+    speed = speed_profile(kappa, seg_len, v_max, grip_factor * car.friction * GRAVITY,
+                          accel_factor * car.max_accel, brake_factor * car.max_brake)
+    mean_speed = 0.5 * (speed + np.roll(speed, -1))
+    lap_time = float(np.sum(seg_len / mean_speed))
+    arrays = [s, d, points, kappa, speed]
+    for arr in arrays:
+        arr.flags.writeable = False
+    line = RaceLine(s=s, d=d, points=points, curvature=kappa, path_length=float(seg_len.sum()),
+                    speed=speed, lap_time=lap_time, track_length=track.length)
+    per_track[key] = line
+    return line

@@ -1,0 +1,472 @@
+"""Scripted drivers: privileged, batched baselines and opponents.
+
+A driver controls one car index in every env copy of a :class:`~h2h_racing.core.RaceCore`
+at once and reads the true state (like DeepRacer's bot cars). It returns actions in the
+env's continuous action space, ``[steer, speed]`` in ``[-1, 1]``, one row per env copy.
+
+| name | driver | behaviour |
+|---|---|---|
+| ``pure_pursuit`` | :class:`PurePursuit` | centre line, modest speed capped by the curvature ahead |
+| ``racing_line`` | :class:`RacingLine` | minimum-curvature line and its speed profile |
+| ``blocker`` | :class:`Blocker` | inner lane; moves across to cover an attacker close behind |
+| ``random`` | :class:`Random` | uniform random actions (fuzzing; it does not finish laps) |
+
+Steering is pure pursuit (Coulter, *Implementation of the Pure Pursuit Path Tracking
+Algorithm*, CMU-RI-TR-92-01, 1992): with the rear axle at ``p``, a target point ``q`` on the
+path at distance ``l_d`` and ``alpha`` the angle of ``q - p`` from the car's heading, the arc
+through ``p`` and ``q`` has curvature ``2 sin(alpha) / l_d``, hence the steering angle
+``delta = atan(2 L sin(alpha) / l_d)`` with ``L`` the wheelbase. The car model is close to
+neutral steer (``l_f C_f = l_r C_r``), so the kinematic angle holds up to the grip limit.
+
+Run ``python -m h2h_racing.policies.scripted`` for the lap-time table of every driver on
+every catalogue track.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable, Sequence
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+import numpy.typing as npt
+
+from h2h_racing.config import EnvConfig, RaceRules
+from h2h_racing.core import RaceCore
+from h2h_racing.policies.racing_line import GRAVITY, RaceLine, compute_race_line
+from h2h_racing.track import Track
+
+FloatArray = npt.NDArray[np.float64]
+ActionArray = npt.NDArray[np.float32]
+
+
+@runtime_checkable
+class Driver(Protocol):
+    """A batched scripted driver for one car index of a :class:`RaceCore`."""
+
+    name: str
+    """Registry name of the driver."""
+
+    def reset(self, core: RaceCore) -> None:
+        """Prepare for a new episode; called after ``core.reset`` (precompute per track)."""
+
+    def act(self, core: RaceCore, car: int) -> ActionArray:
+        """Return the actions of car ``car`` in every env copy, shape (E, 2), float32,
+        ``[steer, speed]`` in [-1, 1]."""
+
+
+# ---------------------------------------------------------------------- helpers
+
+
+def to_action(core: RaceCore, steer_rad: FloatArray, speed_mps: FloatArray) -> ActionArray:
+    """Map a steering angle and a speed to the env's continuous action, with clipping.
+
+    The inverse of ``RacingEnv._parse_actions``: ``steer = delta / car.max_steer`` and
+    ``speed = (v - mid) / half_range`` with ``mid, half_range`` the centre and half-width of
+    ``[config.min_speed, config.max_speed]``, both clipped to [-1, 1].
+
+    Args:
+        core: The simulation core (for the car and speed limits).
+        steer_rad: Steering angles, shape (E,) [rad], left positive.
+        speed_mps: Commanded speeds, shape (E,) [m/s].
+
+    Returns:
+        Actions, shape (E, 2), float32.
+    """
+    cfg = core.config
+    mid = 0.5 * (cfg.max_speed + cfg.min_speed)
+    half = 0.5 * (cfg.max_speed - cfg.min_speed)
+    steer = np.asarray(steer_rad, dtype=np.float64) / cfg.car.max_steer
+    speed = (np.asarray(speed_mps, dtype=np.float64) - mid) / half
+    steer, speed = np.broadcast_arrays(steer, speed)
+    out = np.stack([steer, speed], axis=-1)
+    return np.clip(out, -1.0, 1.0).astype(np.float32)
+
+
+def pursuit_steer(core: RaceCore, car: int, target: FloatArray) -> FloatArray:
+    """Return the pure-pursuit steering angle towards world points ``target`` (E, 2) [rad].
+
+    ``delta = atan(2 L sin(alpha) / l_d)`` from the rear axle (see the module docstring).
+    """
+    params = core.config.car
+    yaw = core.yaw[:, car]
+    cos_yaw, sin_yaw = np.cos(yaw), np.sin(yaw)
+    rear_x = core.position[:, car, 0] - params.cg_to_rear * cos_yaw
+    rear_y = core.position[:, car, 1] - params.cg_to_rear * sin_yaw
+    dx = target[:, 0] - rear_x
+    dy = target[:, 1] - rear_y
+    distance = np.maximum(np.hypot(dx, dy), 1e-6)
+    # sin(alpha) = cross(heading, q - p) / |q - p|.
+    sin_alpha = (cos_yaw * dy - sin_yaw * dx) / distance
+    return np.arctan2(2.0 * params.wheelbase * sin_alpha, distance)
+
+
+def lookahead(speed: FloatArray, base: float, gain: float, limit: float) -> FloatArray:
+    """Return the look-ahead distance ``min(base + gain |v|, limit)`` [m], shape of ``speed``."""
+    return np.minimum(base + gain * np.abs(speed), limit)
+
+
+def _offset_curvature(kappa: FloatArray, d: FloatArray | float) -> FloatArray:
+    """Curvature of a path at constant offset ``d`` from a centre line of curvature ``kappa``.
+
+    A parallel curve has radius ``1/kappa - d`` (left offsets shrink left turns):
+    ``kappa / (1 - kappa d)``; the denominator is floored for safety.
+    """
+    return kappa / np.maximum(1.0 - kappa * d, 0.2)
+
+
+def _curvature_speed(core: RaceCore, s: FloatArray, d: FloatArray | float, horizon: float,
+                     a_lat: float) -> FloatArray:
+    """Highest speed [m/s] at which the largest curvature over ``[s, s + horizon]`` of the
+    path at offset ``d`` stays within the lateral acceleration ``a_lat``, shape (E,)."""
+    samples = s[:, None] + np.linspace(0.0, horizon, max(2, math.ceil(horizon / 0.1) + 1))
+    d_arr = np.asarray(d, dtype=np.float64)
+    d_col = d_arr[:, None] if d_arr.ndim else d_arr
+    kappa = np.abs(_offset_curvature(core.track.curvature_at(samples), d_col)).max(axis=1)
+    return np.sqrt(a_lat / np.maximum(kappa, 1e-6))
+
+
+# ---------------------------------------------------------------------- drivers
+
+
+class PurePursuit:
+    """Follow the centre line at a modest speed, capped by the curvature ahead.
+
+    Args:
+        cruise_speed: Speed on straights [m/s].
+        lateral_accel: Lateral acceleration budget in corners, as a fraction of ``mu g``.
+        preview: Distance ahead over which the largest curvature caps the speed [m].
+        lookahead_base: Look-ahead distance at standstill [m].
+        lookahead_gain: Extra look-ahead per m/s of speed [s].
+        offset: Lateral offset of the followed line from the centre line [m], left positive.
+    """
+
+    name = "pure_pursuit"
+
+    def __init__(self, cruise_speed: float = 2.5, lateral_accel: float = 0.45,
+                 preview: float = 2.0, lookahead_base: float = 0.35,
+                 lookahead_gain: float = 0.2, offset: float = 0.0) -> None:
+        if not cruise_speed > 0:
+            raise ValueError(f"cruise_speed must be > 0 m/s, got {cruise_speed}")
+        if not 0 < lateral_accel <= 1:
+            raise ValueError(f"lateral_accel must be a fraction of mu g in (0, 1], got "
+                             f"{lateral_accel}")
+        self.cruise_speed = cruise_speed
+        self.lateral_accel = lateral_accel
+        self.preview = preview
+        self.lookahead_base = lookahead_base
+        self.lookahead_gain = lookahead_gain
+        self.offset = offset
+
+    def reset(self, core: RaceCore) -> None:
+        """Nothing to precompute: the centre line is the track's own."""
+
+    def _drive(self, core: RaceCore, car: int, offset: FloatArray | float) -> ActionArray:
+        """Pursue the line at lateral ``offset`` (scalar or (E,)) with the speed cap."""
+        s = core.s[:, car]
+        v = core.speed[:, car]
+        ld = lookahead(v, self.lookahead_base, self.lookahead_gain, 1.5)
+        target = core.track.point_at(s + ld, offset)
+        steer = pursuit_steer(core, car, target)
+        a_lat = self.lateral_accel * core.config.car.friction * GRAVITY
+        limit = _curvature_speed(core, s, offset, self.preview, a_lat)
+        speed = np.minimum(self.cruise_speed, limit)
+        return to_action(core, steer, speed)
+
+    def act(self, core: RaceCore, car: int) -> ActionArray:
+        """Return (E, 2) actions for car ``car``."""
+        return self._drive(core, car, self.offset)
+
+
+class RacingLine:
+    """Drive the track's minimum-curvature racing line at its speed profile.
+
+    The line and its profile are computed once per track (see
+    :mod:`h2h_racing.policies.racing_line`) and tracked with pure pursuit. The speed
+    command is the lowest profile speed over the next ``speed_preview`` seconds, which
+    makes the speed controller (a first-order lag) brake early enough.
+
+    Opponent handling is minimal and conservative: when another racing car is within
+    ``follow_gap`` metres ahead and overlaps the line, the driver steers to the side of it
+    with more room and caps its speed at the other car's speed plus ``closing_speed``.
+
+    Args:
+        grip_factor: Fraction of ``mu g`` the speed profile uses in corners.
+        margin: Distance kept by the line from each border [m].
+        speed_preview: Horizon of the speed command [s].
+        lookahead_base: Look-ahead distance at standstill [m].
+        lookahead_gain: Extra look-ahead per m/s of speed [s].
+        follow_gap: Distance ahead within which another car is avoided [m].
+        closing_speed: Largest speed excess over a car being avoided [m/s].
+    """
+
+    name = "racing_line"
+
+    def __init__(self, grip_factor: float = 0.7, margin: float = 0.12,
+                 speed_preview: float = 0.3, lookahead_base: float = 0.35,
+                 lookahead_gain: float = 0.15, follow_gap: float = 1.2,
+                 closing_speed: float = 0.5) -> None:
+        if not 0 < grip_factor <= 1:
+            raise ValueError(f"grip_factor must be in (0, 1], got {grip_factor}")
+        self.grip_factor = grip_factor
+        self.margin = margin
+        self.speed_preview = speed_preview
+        self.lookahead_base = lookahead_base
+        self.lookahead_gain = lookahead_gain
+        self.follow_gap = follow_gap
+        self.closing_speed = closing_speed
+        self.line: RaceLine | None = None
+        self._track: Track | None = None
+
+    def reset(self, core: RaceCore) -> None:
+        """Compute (or fetch from the per-track cache) the racing line of ``core.track``."""
+        if self.line is None or self._track is not core.track:
+            self.line = compute_race_line(core.track, core.config.car, core.config.max_speed,
+                                          margin=self.margin, grip_factor=self.grip_factor)
+            self._track = core.track
+
+    def act(self, core: RaceCore, car: int) -> ActionArray:
+        """Return (E, 2) actions for car ``car``."""
+        if self.line is None or self._track is not core.track:
+            self.reset(core)
+        line = self.line
+        assert line is not None
+        s = core.s[:, car]
+        v = core.speed[:, car]
+        ld = lookahead(v, self.lookahead_base, self.lookahead_gain, 1.5)
+        s_target = s + ld
+        offset = line.offset_at(s_target)
+        horizon = np.maximum(v, 1.0) * self.speed_preview
+        speed = line.min_speed_ahead(s, horizon)
+        if core.num_cars > 1:
+            offset, speed = self._avoid(core, car, s_target, offset, speed)
+        target = core.track.point_at(s_target, offset)
+        steer = pursuit_steer(core, car, target)
+        return to_action(core, steer, speed)
+
+    def _avoid(self, core: RaceCore, car: int, s_target: FloatArray, offset: FloatArray,
+               speed: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Keep clear of the nearest racing car alongside or ahead (per env copy).
+
+        A car alongside (track gap below a car length plus 0.15 m) pushes the lateral
+        target to at least a car width plus 0.15 m from it, on the side we are already on.
+        A car ahead within ``follow_gap`` that overlaps the line is passed on the side with
+        more room, and the speed is capped at its speed plus a closing speed that shrinks
+        to zero as the gap closes, so a pass that finds no room becomes a follow.
+        """
+        params = core.config.car
+        gap = core.distance - core.distance[:, car : car + 1]  # (E, N), > 0: ahead
+        others = core.racing & (np.arange(core.num_cars) != car)[None, :]
+        near = others & (gap > -params.length - 0.15) & (gap < self.follow_gap)
+        if not near.any():
+            return offset, speed
+        rows = np.arange(core.num_envs)
+        nearest = np.argmin(np.where(near, np.abs(gap), np.inf), axis=1)
+        found = near[rows, nearest]
+        other_gap = gap[rows, nearest]
+        other_d = core.d[rows, nearest]
+        other_v = core.speed[rows, nearest]
+        my_d = core.d[:, car]
+        left, right = core.track.half_widths_at(s_target)
+        lo, hi = -right + self.margin, left - self.margin
+        clearance = params.width + 0.15
+        alongside = found & (other_gap < params.length + 0.15)
+        side_now = np.where(my_d >= other_d, 1.0, -1.0)
+        room_side = np.where(left - other_d >= other_d + right, 1.0, -1.0)
+        side = np.where(alongside, side_now, room_side)
+        lateral = np.abs(offset - other_d)
+        in_the_way = found & (alongside | (lateral < clearance))
+        wanted = other_d + side * clearance
+        keep_off = np.where(side > 0, np.maximum(offset, wanted), np.minimum(offset, wanted))
+        offset = np.where(in_the_way, np.clip(keep_off, lo, hi), offset)
+        ahead = found & (other_gap > 0.0) & ~alongside & (lateral < clearance)
+        closing = self.closing_speed * np.clip(
+            (other_gap - params.length - 0.1) / self.follow_gap, 0.0, 1.0)
+        speed = np.where(ahead, np.minimum(speed, other_v + closing), speed)
+        return offset, speed
+
+
+class Blocker(PurePursuit):
+    """Drive a lane and move across to cover an attacker close behind.
+
+    The car follows the inner (or outer) DeepRacer lane at a moderate, curvature-capped
+    speed. When another racing car is within ``cover_gap`` metres of track distance behind
+    it, the lateral target moves to that car's lateral offset (kept ``margin`` inside the
+    borders) to hold it off; otherwise it returns to the lane.
+
+    Args:
+        lane: ``"inner"`` or ``"outer"``.
+        cruise_speed: Speed on straights [m/s].
+        cover_gap: Distance behind within which an attacker is covered [m].
+        margin: Distance kept from each border by the lateral target [m].
+        **kwargs: Further :class:`PurePursuit` arguments.
+    """
+
+    name = "blocker"
+
+    def __init__(self, lane: str = "inner", cruise_speed: float = 2.2, cover_gap: float = 1.5,
+                 margin: float = 0.15, **kwargs: Any) -> None:
+        if lane not in ("inner", "outer"):
+            raise ValueError(f"lane must be 'inner' or 'outer', got {lane!r}")
+        super().__init__(cruise_speed=cruise_speed, **kwargs)
+        self.lane = lane
+        self.cover_gap = cover_gap
+        self.margin = margin
+
+    def lateral_target(self, core: RaceCore, car: int) -> FloatArray:
+        """Return the lateral offset the blocker steers for, shape (E,) [m]."""
+        s = core.s[:, car]
+        left, right = core.track.half_widths_at(s)
+        inner = core.inner_sign if self.lane == "inner" else -core.inner_sign
+        lane_d = 0.5 * np.where(inner > 0, left, -right)
+        if core.num_cars == 1:
+            return lane_d
+        behind = core.distance[:, car : car + 1] - core.distance  # > 0: the other is behind
+        others = core.racing & (np.arange(core.num_cars) != car)[None, :]
+        close = others & (behind > 0.0) & (behind < self.cover_gap)
+        nearest = np.argmin(np.where(close, behind, np.inf), axis=1)
+        rows = np.arange(core.num_envs)
+        cover = np.clip(core.d[rows, nearest], -right + self.margin, left - self.margin)
+        return np.where(close[rows, nearest], cover, lane_d)
+
+    def act(self, core: RaceCore, car: int) -> ActionArray:
+        """Return (E, 2) actions for car ``car``."""
+        return self._drive(core, car, self.lateral_target(core, car))
+
+
+class Random:
+    """Uniform random actions in [-1, 1]^2, for fuzzing (it does not finish laps).
+
+    Args:
+        rng: The generator every action is drawn from (explicit, for reproducibility).
+    """
+
+    name = "random"
+
+    def __init__(self, rng: np.random.Generator) -> None:
+        if not isinstance(rng, np.random.Generator):
+            raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}; "
+                            f"use np.random.default_rng(seed)")
+        self.rng = rng
+
+    def reset(self, core: RaceCore) -> None:
+        """Nothing to prepare (the generator continues across episodes)."""
+
+    def act(self, core: RaceCore, car: int) -> ActionArray:
+        """Return (E, 2) uniform random actions."""
+        return self.rng.uniform(-1.0, 1.0, size=(core.num_envs, 2)).astype(np.float32)
+
+
+# ---------------------------------------------------------------------- registry
+
+DRIVERS: dict[str, Callable[..., Driver]] = {
+    "pure_pursuit": PurePursuit,
+    "racing_line": RacingLine,
+    "blocker": Blocker,
+    "random": Random,
+}
+"""Driver constructors by registry name."""
+
+
+def make_driver(name: str, **kwargs: Any) -> Driver:
+    """Build a scripted driver by name.
+
+    >>> make_driver("pure_pursuit", cruise_speed=2.0).name
+    'pure_pursuit'
+
+    Args:
+        name: One of ``DRIVERS`` (``"pure_pursuit"``, ``"racing_line"``, ``"blocker"``,
+            ``"random"``; ``"random"`` needs ``rng=np.random.default_rng(seed)``).
+        **kwargs: Constructor arguments of the driver.
+
+    Raises:
+        ValueError: If the name is unknown.
+    """
+    if name not in DRIVERS:
+        raise ValueError(f"unknown driver {name!r}; known drivers are {sorted(DRIVERS)}")
+    return DRIVERS[name](**kwargs)
+
+
+# ---------------------------------------------------------------------- running races
+
+
+def drive(core: RaceCore, drivers: Sequence[Driver], max_steps: int | None = None) -> int:
+    """Run the core with one driver per car until every car is done.
+
+    Calls each driver's ``reset`` (the core must already be reset), then steps. Actions are
+    mapped back to radians and m/s exactly as ``RacingEnv`` does.
+
+    Args:
+        core: A reset core with ``len(drivers)`` cars.
+        drivers: Driver of car i at index i.
+        max_steps: Optional step cap (the core's own time limit applies anyway).
+
+    Returns:
+        The number of steps taken.
+    """
+    if len(drivers) != core.num_cars:
+        raise ValueError(f"expected one driver per car ({core.num_cars}), got {len(drivers)}")
+    cfg = core.config
+    mid = 0.5 * (cfg.max_speed + cfg.min_speed)
+    half = 0.5 * (cfg.max_speed - cfg.min_speed)
+    for driver in drivers:
+        driver.reset(core)
+    steps = 0
+    while not core.done.all() and (max_steps is None or steps < max_steps):
+        actions = np.stack([d.act(core, i) for i, d in enumerate(drivers)], axis=1)
+        actions = np.clip(actions.astype(np.float64), -1.0, 1.0)
+        core.step(actions[..., 0] * cfg.car.max_steer, mid + half * actions[..., 1])
+        steps += 1
+    return steps
+
+
+def race_core(track: str | Track, num_cars: int, laps: int = 1, num_envs: int = 1,
+              seed: int = 0, **config: Any) -> RaceCore:
+    """Return a reset ``RaceCore`` for a race of ``laps`` laps with a fixed grid (car i in slot i).
+
+    Args:
+        track: Catalogue name or ``Track``.
+        num_cars: Number of cars.
+        laps: Lap target.
+        num_envs: Env copies.
+        seed: Reset seed.
+        **config: Further ``EnvConfig`` fields.
+    """
+    from h2h_racing.track_io import load_track
+
+    track_obj = track if isinstance(track, Track) else load_track(track)
+    cfg = EnvConfig(track=track_obj.name, num_cars=num_cars, grid="fixed",
+                    rules=RaceRules(laps=laps, time_limit=120.0), **config)
+    core = RaceCore(cfg, track_obj, num_envs=num_envs)
+    core.reset(seed=seed)
+    return core
+
+
+def _main(argv: Sequence[str] | None = None) -> None:
+    """Print the one-lap time of each driver alone on each catalogue track."""
+    from h2h_racing.track_io import list_tracks, load_track
+
+    parser = argparse.ArgumentParser(description=_main.__doc__)
+    parser.add_argument("--drivers", nargs="+", default=["pure_pursuit", "racing_line", "blocker"])
+    parser.add_argument("--tracks", nargs="+", default=None)
+    args = parser.parse_args(argv)
+    tracks = args.tracks or list_tracks()
+    print("| track | " + " | ".join(args.drivers) + " |")
+    print("|---|" + "---|" * len(args.drivers))
+    for name in tracks:
+        track = load_track(name)
+        cells = []
+        for driver_name in args.drivers:
+            core = race_core(track, 1)
+            drive(core, [make_driver(driver_name)])
+            lap = core.lap_times[0][0]
+            text = f"{lap[0]:.2f} s" if lap else "DNF"
+            if core.off_tracks[0, 0]:
+                text += f" ({int(core.off_tracks[0, 0])} off)"
+            cells.append(text)
+        print(f"| {name} | " + " | ".join(cells) + " |")
+
+
+if __name__ == "__main__":
+    _main()
