@@ -64,11 +64,16 @@ def _cmd_tracks_import(args: argparse.Namespace) -> int:
 
 def _cmd_race(args: argparse.Namespace) -> int:
     from h2h_racing.match import run_race
+    from h2h_racing.track_io import list_tracks
 
     drivers = [d.strip() for d in args.drivers.split(",") if d.strip()]
-    result = run_race(track=args.track, drivers=drivers, race_type=args.race_type,
-                      laps=args.laps, seed=args.seed, video=args.video)
-    print(result.table)
+    tracks = list_tracks() if args.track == "all" else [args.track]
+    if args.video and len(tracks) > 1:
+        raise ValueError("--video records one race: give a single --track, not 'all'")
+    for i, track in enumerate(tracks):
+        result = run_race(track=track, drivers=drivers, race_type=args.race_type,
+                          laps=args.laps, seed=args.seed, video=args.video)
+        print(("\n" if i else "") + result.table)
     return 0
 
 
@@ -79,7 +84,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
 
     race = sub.add_parser("race", help="race scripted drivers and print the results table")
-    race.add_argument("--track", default="speedway", help="catalogue name or track file")
+    race.add_argument("--track", default="speedway",
+                      help="catalogue name, track file, or 'all' for every catalogue track")
     race.add_argument("--drivers", default="racing_line,pure_pursuit",
                       help="comma-separated drivers, one per car (see policies/README.md)")
     race.add_argument("--race-type", default="head_to_head",

@@ -215,10 +215,6 @@ class RewardConfig:
             _check(isinstance(value, (int, float)) and math.isfinite(value), "RewardConfig",
                    f.name, value, "a finite number")
 
-    def terms(self) -> tuple[str, ...]:
-        """Return the names of the reward terms, in ``infos`` order."""
-        return tuple(f.name for f in dataclasses.fields(self))
-
 
 DEFAULT_DISCRETE_ACTIONS: tuple[tuple[float, float], ...] = tuple(
     (steer, speed) for steer in (-30.0, -15.0, 0.0, 15.0, 30.0) for speed in (1.0, 2.0, 3.0)

@@ -108,6 +108,8 @@ class RaceCore:
         half_track = 0.5 * car.wheel_track
         self._wheels = np.array([[car.cg_to_front, half_track], [car.cg_to_front, -half_track],
                                  [-car.cg_to_rear, half_track], [-car.cg_to_rear, -half_track]])
+        self._wheel_reach = float(np.hypot(self._wheels[:, 0], self._wheels[:, 1]).max())
+        self._min_half_width = float(min(track.width_left.min(), track.width_right.min()))
         xmin, ymin, xmax, ymax = track.bounds
         park_room = PARK_MARGIN + 0.5 * self.num_cars
         pitch_x = (xmax - xmin) + park_room + ENV_GAP
@@ -410,8 +412,9 @@ class RaceCore:
             rules.reversed_steps, rules.immobilised_steps, rules.immobilised_distance,
             self._points, self._s_points, self._d_points, proj.origin, proj.inv_cell, proj.hi,
             proj.ny, proj.start, proj.cert, proj.tab, proj.window, proj.tab_full,
-            lut.width_left, lut.width_right, lut.inv_ds, lut.length,
-            step_distance, off_track, reversed_, immobilised, laps)
+            lut.width_left, lut.width_right, lut.inv_ds, lut.length, self._min_half_width,
+            self._wheel_reach, step_distance, off_track, reversed_, immobilised,
+            laps)
         contact_a, contact_b = world.pop_contacts()
 
         # Laps.

@@ -91,6 +91,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 from gymnasium import spaces
+from numba import njit
 from pettingzoo import ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
 
@@ -134,7 +135,9 @@ class RacingEnv(ParallelEnv):
                  race_type: str = "head_to_head", rules: Any = None,
                  render_mode: str | None = None, config: EnvConfig | None = None,
                  **overrides: Any) -> None:
-        if render_mode not in (None, *self.metadata["render_modes"]):
+        # "human" is accepted so that PettingZoo's render_test can read the metadata; this
+        # headless build cannot open a window and says so on the first render().
+        if render_mode not in (None, "human", *self.metadata["render_modes"]):
             raise ValueError(f"render_mode must be None or one of "
                              f"{self.metadata['render_modes']}, got {render_mode!r}")
         if config is None:
@@ -169,9 +172,10 @@ class RacingEnv(ParallelEnv):
         self._action_spaces = {a: act_space for a in self.possible_agents}
         self._speed_scale = 0.5 * (config.max_speed - config.min_speed)
         self._speed_mid = 0.5 * (config.max_speed + config.min_speed)
-        self._zero_terms = dict.fromkeys(config.reward.terms())
+        self._weights = rewards.weights_of(config.reward)
         self._renderer: Any = None
         self._reset_done = False
+        self._live: set[str] = set()
 
     # ---------------------------------------------------------------- spaces
     def observation_space(self, agent: str) -> spaces.Space:
@@ -215,6 +219,7 @@ class RacingEnv(ParallelEnv):
                                  f"({self.config.num_cars}), got {options['grid']!r}")
         self.core.reset(seed=seed, slots=slots)
         self.agents = self.possible_agents[:]
+        self._live = set(self.agents)
         self._reset_done = True
         obs = self._observations()
         return obs, self._infos(self.agents, None, None)
@@ -244,8 +249,8 @@ class RacingEnv(ParallelEnv):
         core = self.core
         racing = core._racing
         events = core.step(steer, speed)
-        terms = rewards.reward_terms(self.config.reward, events, core.speed, racing)
-        reward = rewards.total_reward(terms, events.progress.shape)[0].tolist()
+        terms, reward_array = rewards.reward_terms(self._weights, events, core.speed, racing)
+        reward = reward_array[0].tolist()
         obs = self._observations()
         term = events.terminated[0].tolist()
         trunc = events.truncated[0].tolist()
@@ -254,7 +259,9 @@ class RacingEnv(ParallelEnv):
         terminations = {a: term[index[a]] for a in agents}
         truncations = {a: trunc[index[a]] for a in agents}
         infos = self._infos(agents, events, terms=terms)
-        self.agents = [a for a in agents if not (terminations[a] or truncations[a])]
+        if any(term) or any(trunc):
+            self.agents = [a for a in agents if not (terminations[a] or truncations[a])]
+            self._live = set(self.agents)
         obs = {a: obs[a] for a in agents}
         return obs, rewards_out, terminations, truncations, infos
 
@@ -263,9 +270,9 @@ class RacingEnv(ParallelEnv):
         if not isinstance(actions, dict):
             raise ValueError(f"actions must be a dict keyed by agent, got "
                              f"{type(actions).__name__}; live agents: {agents}")
-        if len(actions) != len(agents) or any(a not in actions for a in agents):
+        if actions.keys() != self._live:
             missing = [a for a in agents if a not in actions]
-            unknown = [a for a in actions if a not in self._index or a not in agents]
+            unknown = [a for a in actions if a not in self._live]
             raise ValueError(f"actions must have exactly one entry per live agent {agents}; "
                              f"missing {missing}, unknown or finished {unknown}")
         n = self.config.num_cars
@@ -280,15 +287,13 @@ class RacingEnv(ParallelEnv):
                 bad = {a: np.shape(actions[a]) for a in agents if np.shape(actions[a]) != (2,)}
                 raise ValueError(f"each action must have shape (2,) = [steer, speed]; "
                                  f"got shapes {bad}")
-            # NaN and inf propagate through a sum, so one reduction checks every value.
-            if not math.isfinite(values.sum()):
+            steer_values = np.empty(len(agents))
+            speed_values = np.empty(len(agents))
+            if not _scale_actions(values, self.config.car.max_steer, self._speed_mid,
+                                  self._speed_scale, steer_values, speed_values):
                 bad = {a: actions[a] for a, row in zip(agents, values)
                        if not np.isfinite(row).all()}
                 raise ValueError(f"actions must be finite; got NaN or inf for {bad}")
-            np.minimum(values, 1.0, out=values)
-            np.maximum(values, -1.0, out=values)
-            steer_values = values[:, 0] * self.config.car.max_steer
-            speed_values = values[:, 1] * self._speed_scale + self._speed_mid
         else:
             count = len(self.config.discrete_actions)
             chosen = []
@@ -316,45 +321,35 @@ class RacingEnv(ParallelEnv):
         return {a: obs[i] for i, a in enumerate(self.possible_agents)}
 
     def _infos(self, agents: list[str], events: Any,
-               terms: dict[str, Any] | None) -> dict[str, dict[str, Any]]:
+               terms: npt.NDArray[np.float64] | None) -> dict[str, dict[str, Any]]:
         core = self.core
         n = self.config.num_cars
-        distance = core.distance[0]
-        lists = {
-            "progress": ((distance - core.start_distance[0])
-                         * (100.0 / self.track.length)).tolist(),
-            "distance": distance.tolist(),
-            "lap": core.laps[0].tolist(),
-            "last_lap_time": core.last_lap_time[0].tolist(),
-            "best_lap_time": core.best_lap_time[0].tolist(),
-            "rank": core.rank[0].tolist(),
-            "frozen": (core.frozen_until[0] > core.time[0]).tolist(),
-            "finished": core.finished[0].tolist(),
-            "overtakes": core.overtakes[0].tolist(),
-            "overtaken": core.overtaken[0].tolist(),
-            "defences": core.defences[0].tolist(),
-            "resets": core.resets[0].tolist(),
-            "penalties": core.penalties[0].tolist(),
-        }
-        if events is not None:
-            lists["off_track"] = events.off_track[0].tolist()
-            lists["crashed"] = events.crashed[0].tolist()
-            lists["collided"] = events.collided[0].tolist()
-            lists["penalised"] = events.penalised[0].tolist()
-        else:
-            false = [False] * n
-            lists.update(off_track=false, crashed=false, collided=false, penalised=false)
-        term_lists = {name: ([0.0] * n if value is None else value[0].tolist())
-                      for name, value in (terms or self._zero_terms).items()}
+        floats = np.empty((n, len(_FLOAT_INFO)))
+        ints = np.empty((n, len(_INT_INFO)), dtype=np.int64)
+        flags = np.zeros((n, len(_BOOL_INFO)), dtype=bool)
+        no_event = core._no_cars
+        _info_kernel(core.distance[0], core.start_distance[0], 100.0 / self.track.length,
+                     core.last_lap_time[0], core.best_lap_time[0], core.laps[0], core.rank[0],
+                     core.overtakes[0], core.overtaken[0], core.defences[0], core.resets[0],
+                     core.penalties[0], core.frozen_until[0], core.time[0], core.finished[0],
+                     (events.off_track if events else no_event)[0],
+                     (events.crashed if events else no_event)[0],
+                     (events.collided if events else no_event)[0],
+                     (events.penalised if events else no_event)[0], floats, ints, flags)
+        float_rows, int_rows, flag_rows = floats.tolist(), ints.tolist(), flags.tolist()
+        term_rows = (terms[:, 0, :].T.tolist() if terms is not None
+                     else [[0.0] * len(rewards.TERMS)] * n)
         time = float(core.time[0])
         lap_times = core.lap_times[0]
         infos = {}
         for a in agents:
             i = self._index[a]
-            info = {key: values[i] for key, values in lists.items()}
+            info = dict(zip(_FLOAT_INFO, float_rows[i]))
+            info.update(zip(_INT_INFO, int_rows[i]))
+            info.update(zip(_BOOL_INFO, flag_rows[i]))
             info["lap_times"] = list(lap_times[i])
             info["time"] = time
-            info["reward_terms"] = {name: values[i] for name, values in term_lists.items()}
+            info["reward_terms"] = dict(zip(rewards.TERMS, term_rows[i]))
             infos[a] = info
         return infos
 
@@ -362,6 +357,10 @@ class RacingEnv(ParallelEnv):
         """Return a top-down spectator frame (H, W, 3) uint8 in ``rgb_array`` mode."""
         if self.render_mode is None:
             return None
+        if self.render_mode == "human":
+            raise RuntimeError("render_mode='human' needs a window, and h2h-racing renders "
+                               "headless (opencv-python-headless): use render_mode='rgb_array' "
+                               "and display the frames, or record the race for the rerun viewer")
         if self._renderer is None:
             from h2h_racing.render import SpectatorRenderer
 
@@ -382,6 +381,50 @@ class RacingEnv(ParallelEnv):
         state = self.__dict__.copy()
         state["_renderer"] = None
         return state
+
+
+@njit(cache=True)
+def _scale_actions(values, max_steer, speed_mid, speed_half, steer, speed):  # pragma: no cover
+    # Clip [steer, speed] to [-1, 1] and map to radians and m/s; False if any is NaN or inf.
+    for i in range(values.shape[0]):
+        a = values[i, 0]
+        b = values[i, 1]
+        if not (math.isfinite(a) and math.isfinite(b)):
+            return False
+        steer[i] = min(max(a, -1.0), 1.0) * max_steer
+        speed[i] = speed_mid + min(max(b, -1.0), 1.0) * speed_half
+    return True
+
+
+_FLOAT_INFO = ("progress", "distance", "last_lap_time", "best_lap_time")
+_INT_INFO = ("lap", "rank", "overtakes", "overtaken", "defences", "resets", "penalties")
+_BOOL_INFO = ("frozen", "finished", "off_track", "crashed", "collided", "penalised")
+
+
+@njit(cache=True)
+def _info_kernel(distance, start_distance, percent_per_metre, last_lap, best_lap, laps, rank,
+                 overtakes, overtaken, defences, resets, penalties, frozen_until, time, finished,
+                 off_track, crashed, collided, penalised, floats, ints, flags):  # pragma: no cover
+    # Gathers the per-car info fields of one env copy into three small tables, so that the
+    # per-agent dicts are built from three tolist() calls instead of one per field.
+    for i in range(distance.shape[0]):
+        floats[i, 0] = (distance[i] - start_distance[i]) * percent_per_metre
+        floats[i, 1] = distance[i]
+        floats[i, 2] = last_lap[i]
+        floats[i, 3] = best_lap[i]
+        ints[i, 0] = laps[i]
+        ints[i, 1] = rank[i]
+        ints[i, 2] = overtakes[i]
+        ints[i, 3] = overtaken[i]
+        ints[i, 4] = defences[i]
+        ints[i, 5] = resets[i]
+        ints[i, 6] = penalties[i]
+        flags[i, 0] = frozen_until[i] > time
+        flags[i, 1] = finished[i]
+        flags[i, 2] = off_track[i]
+        flags[i, 3] = crashed[i]
+        flags[i, 4] = collided[i]
+        flags[i, 5] = penalised[i]
 
 
 def parallel_env(**kwargs: Any) -> RacingEnv:

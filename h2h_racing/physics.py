@@ -104,6 +104,26 @@ class PhysicsWorld:
         self._write_vel_buffer.set_float_buf(self._write_vel.reshape(-1))
         self._check_body_order(ids)
 
+    def __getstate__(self) -> dict[str, object]:
+        # cffi batch buffers cannot be pickled; they are rebuilt around fresh numpy arrays.
+        state = self.__dict__.copy()
+        for key in ("_read_buffer", "_write_vel_buffer", "_write_state_buffer"):
+            del state[key]
+        return state
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        self.__dict__.update(state)
+        self._read_memory = self._read_memory.copy()
+        self._state = self._read_memory[: self._state.size].reshape(self._state.shape)
+        self._write = self._write.copy()
+        self._write_vel = self._write_vel.copy()
+        self._read_buffer = pb.Buffer()
+        self._read_buffer.set_float_buf(self._read_memory)
+        self._write_state_buffer = pb.Buffer()
+        self._write_state_buffer.set_float_buf(self._write.reshape(-1))
+        self._write_vel_buffer = pb.Buffer()
+        self._write_vel_buffer.set_float_buf(self._write_vel.reshape(-1))
+
     def _check_body_order(self, ids: npt.NDArray[np.uint64]) -> None:
         """Verify that pymunk iterates bodies in insertion order (the batch layout relies on it)."""
         buffer = pb.Buffer()

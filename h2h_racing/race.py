@@ -240,7 +240,8 @@ def advance_cars(body_state, env_offset, wheels, racing, done, time, steps, time
                  reversed_steps, immobilised_steps, immobile_distance, points, s_points, d_points,
                  proj_origin, proj_inv_cell, proj_hi, proj_ny, proj_start, proj_cert, proj_tab,
                  proj_window, proj_tab_full, width_left, width_right, inv_ds, length,
-                 step_distance, off_track, reversed_, immobilised, new_laps):  # pragma: no cover
+                 min_half_width, wheel_reach, step_distance, off_track, reversed_,
+                 immobilised, new_laps):  # pragma: no cover
     """Read the physics state back and apply the per-car rules, for every car at once.
 
     For each car (E, N), given pymunk's state ``body_state`` (E * N + ..., 6) =
@@ -305,28 +306,37 @@ def advance_cars(body_state, env_offset, wheels, racing, done, time, steps, time
                 immobile_count[e, i] = 0
                 new_laps[e, i] = laps[e, i]
                 continue
+            # Project the centre; the wheels only when the car is near an edge. Distance to the
+            # centre line is 1-Lipschitz, so a wheel within ``wheel_reach`` of the centre is at
+            # most |d| + wheel_reach from the line: on the surface when that is below the
+            # track's narrowest half-width.
             points[0, 0] = x
             points[0, 1] = y
-            for w in range(num_wheels):
-                points[1 + w, 0] = x + c * wheels[w, 0] - sn * wheels[w, 1]
-                points[1 + w, 1] = y + sn * wheels[w, 0] + c * wheels[w, 1]
-            project_kernel(points, _EVERY_POINT, proj_origin, proj_inv_cell, proj_hi, proj_ny,
-                            proj_start, proj_cert, proj_tab, proj_window, proj_tab_full, length,
-                            s_points, d_points)
+            count = 1
+            if abs(d[e, i]) + moved + wheel_reach > min_half_width:
+                for w in range(num_wheels):
+                    points[1 + w, 0] = x + c * wheels[w, 0] - sn * wheels[w, 1]
+                    points[1 + w, 1] = y + sn * wheels[w, 0] + c * wheels[w, 1]
+                count = 1 + num_wheels
+            project_kernel(points[:count], _EVERY_POINT, proj_origin, proj_inv_cell, proj_hi,
+                           proj_ny, proj_start, proj_cert, proj_tab, proj_window, proj_tab_full,
+                           length, s_points, d_points)
             ds = s_points[0] - s[e, i]
             ds = ds - length * math.floor((ds + half) / length)
             step_distance[e, i] = ds
             distance[e, i] += ds
             s[e, i] = s_points[0]
             d[e, i] = d_points[0]
-            any_on = False
-            for w in range(1, num_wheels + 1):
-                sw = s_points[w]
-                dw = d_points[w]
-                if (dw <= lookup(width_left, sw, inv_ds, length)
-                        and dw >= -lookup(width_right, sw, inv_ds, length)):
-                    any_on = True
-                    break
+            any_on = True
+            if count > 1:
+                any_on = abs(d_points[0]) + wheel_reach <= min_half_width
+                for w in range(1, count):
+                    if any_on:
+                        break
+                    sw = s_points[w]
+                    dw = d_points[w]
+                    any_on = (dw <= lookup(width_left, sw, inv_ds, length)
+                              and dw >= -lookup(width_right, sw, inv_ds, length))
             off_track[e, i] = not any_on
             reverse_count[e, i] = reverse_count[e, i] + 1 if ds < 0.0 else 0
             immobile_count[e, i] = immobile_count[e, i] + 1 if moved <= immobile_distance else 0

@@ -725,28 +725,29 @@ class Projector:
         )
 
 
-@njit(cache=True)
-def _segment_distance(z, row):  # pragma: no cover
-    """Distance from complex point ``z`` to segment ``row = (A, D, conj(D)/|D|^2, ...)``.
+@njit(cache=True, inline="always")
+def _segment_distance2(z, tab, r):  # pragma: no cover
+    """Squared distance from complex point ``z`` to segment ``tab[r] = (A, D, conj(D)/|D|^2, ...)``.
 
     Points and vectors are complex numbers ``x + iy``: for a segment ``A + tD`` the foot is at
     ``t = clamp(Re((z - A) conj(D)) / |D|^2, 0, 1)``; a zero-length segment stores
     ``conj(D)/|D|^2 = 0``, so ``t = 0`` and the distance is to ``A``.
     """
-    w = z - row[0]
-    t = min(max((w * row[2]).real, 0.0), 1.0)
-    e = w - t * row[1]
-    return abs(e), t, e
+    w = z - tab[r, 0]
+    t = min(max((w * tab[r, 2]).real, 0.0), 1.0)
+    e = w - t * tab[r, 1]
+    return e.real * e.real + e.imag * e.imag, t, e
 
 
 @njit(cache=True)
 def project_kernel(q, mask, origin, inv_cell, hi, ny, start, cert, tab, window, tab_full, length,
-                    out_s, out_d):  # pragma: no cover
+                   out_s, out_d):  # pragma: no cover
     """Exact nearest point of the centre polyline for each point of ``q`` (P, 2).
 
     The grid cell of a point gives a window of ``window`` candidate segments (rows
     ``start[cell] ..`` of ``tab``); when the best distance in the window exceeds the cell's
     certificate, the window might miss the nearest segment and every segment is searched.
+    Points where ``mask`` is False are skipped (s = d = 0); an empty mask selects all.
     """
     everything = mask.shape[0] == 0
     for i in range(q.shape[0]):
@@ -766,18 +767,19 @@ def project_kernel(q, mask, origin, inv_cell, hi, ny, start, cert, tab, window, 
         best_t = 0.0
         best_e = 0j
         for r in range(first, first + window):
-            dist, t, e = _segment_distance(z, tab[r])
-            if dist < best:
-                best, best_row, best_t, best_e = dist, r, t, e
-        row = tab[best_row]
-        if best > cert[cell]:
+            dist2, t, e = _segment_distance2(z, tab, r)
+            if dist2 < best:
+                best, best_row, best_t, best_e = dist2, r, t, e
+        table = tab
+        limit = cert[cell]
+        if limit < 0.0 or best > limit * limit:
             best = np.inf
+            table = tab_full
             for r in range(tab_full.shape[0]):
-                dist, t, e = _segment_distance(z, tab_full[r])
-                if dist < best:
-                    best, best_row, best_t, best_e = dist, r, t, e
-            row = tab_full[best_row]
-        s = row[4].real + best_t * row[4].imag
+                dist2, t, e = _segment_distance2(z, tab_full, r)
+                if dist2 < best:
+                    best, best_row, best_t, best_e = dist2, r, t, e
+        s = table[best_row, 4].real + best_t * table[best_row, 4].imag
         # s0 + t * len reaches ``length`` only at the very end of the closing segment.
         out_s[i] = 0.0 if s >= length else s
-        out_d[i] = math.copysign(best, (best_e * row[3]).imag)
+        out_d[i] = math.copysign(math.sqrt(best), (best_e * table[best_row, 3]).imag)
