@@ -51,12 +51,15 @@ def _cmd_tracks_show(args: argparse.Namespace) -> int:
 
 
 def _cmd_tracks_import(args: argparse.Namespace) -> int:
+    import dataclasses
+
     from h2h_racing.track_io import load_track, save_track
 
-    track = load_track(args.file, scale=args.scale, reverse=args.reverse)
     name = args.name or Path(args.file).stem
+    track = dataclasses.replace(load_track(args.file, scale=args.scale, reverse=args.reverse),
+                                name=name)
     out = Path(args.out or f"{name}.json")
-    save_track(track, out, name=name)
+    save_track(track, out)
     print(f"imported {args.file}: lap {track.length:.2f} m, width {track.width.min():.2f}-"
           f"{track.width.max():.2f} m, {len(track.centre)} points -> {out}")
     return 0

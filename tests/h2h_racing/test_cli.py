@@ -1,0 +1,78 @@
+"""The h2h-racing command line, run in-process through ``h2h_racing.cli.main``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from h2h_racing.cli import main
+from h2h_racing.track_io import list_tracks, load_track
+
+
+class TestTracksCommands:
+    """``h2h-racing tracks list | show | import``."""
+
+    def test_list_names_every_catalogue_track(self, capsys: pytest.CaptureFixture[str]) -> None:
+        assert main(["tracks", "list"]) == 0
+        out = capsys.readouterr().out
+        for name in list_tracks():
+            assert name in out
+
+    def test_show_writes_a_png_of_the_track(self, tmp_path: Path) -> None:
+        out = tmp_path / "oval.png"
+        assert main(["tracks", "show", "oval", "--out", str(out), "--width", "300"]) == 0
+        image = cv2.imread(str(out))
+        assert image is not None and image.shape[1] == 300
+        # The preview is not blank: it has the floor, the grey surface and white borders.
+        assert len(np.unique(image.reshape(-1, 3), axis=0)) > 3
+
+    def test_import_csv_round_trips_through_the_json_format(self, tmp_path: Path) -> None:
+        # A circle of radius 3 m sampled every 10 degrees, 0.4 m wide on each side.
+        angle = np.radians(np.arange(0, 360, 10))
+        rows = np.stack([3 * np.cos(angle), 3 * np.sin(angle), np.full(36, 0.4),
+                         np.full(36, 0.4)], axis=1)
+        csv = tmp_path / "ring.csv"
+        np.savetxt(csv, rows, delimiter=",", header="x_m,y_m,w_tr_right_m,w_tr_left_m")
+        out = tmp_path / "ring.json"
+        assert main(["tracks", "import", str(csv), "--name", "ring", "--out", str(out)]) == 0
+        data = json.loads(out.read_text())
+        assert data["name"] == "ring" and len(data["x"]) == 36
+        track = load_track(out)
+        # Perimeter of the 36-gon inscribed in a 3 m circle: 36 * 2 * 3 * sin(5 deg) = 18.83 m.
+        assert track.length == pytest.approx(36 * 6 * np.sin(np.radians(5)), rel=1e-6)
+
+    def test_bad_file_is_a_clear_error_not_a_traceback(
+            self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+        bad = tmp_path / "bad.csv"
+        bad.write_text("1,2,0.5,0.5\n3,4,0.5,0.5\n")
+        assert main(["tracks", "import", str(bad)]) == 2
+        err = capsys.readouterr().err
+        assert "bad.csv" in err
+
+
+class TestRaceCommand:
+    """``h2h-racing race`` prints a results table."""
+
+    def test_race_prints_both_drivers_and_a_winner(self, capsys: pytest.CaptureFixture[str]) -> None:
+        assert main(["race", "--track", "oval", "--laps", "1"]) == 0
+        out = capsys.readouterr().out
+        assert "racing_line" in out and "pure_pursuit" in out
+        lines = [line for line in out.splitlines() if line.strip().startswith(("1 ", "2 "))]
+        assert len(lines) == 2
+
+    def test_unknown_driver_is_reported(self, capsys: pytest.CaptureFixture[str]) -> None:
+        assert main(["race", "--track", "oval", "--drivers", "racing_line,nobody"]) == 2
+        assert "nobody" in capsys.readouterr().err
+
+    def test_video_is_written(self, tmp_path: Path) -> None:
+        video = tmp_path / "race.mp4"
+        assert main(["race", "--track", "oval", "--laps", "1", "--video", str(video)]) == 0
+        capture = cv2.VideoCapture(str(video))
+        frames = int(capture.get(cv2.CAP_PROP_FRAME_COUNT))
+        capture.release()
+        # One frame per step plus the start frame; a 1-lap race on the 20 m oval takes > 5 s.
+        assert frames > 5 * 15
