@@ -220,9 +220,15 @@ class RaceCore:
         self.obstacle_yaw = zeros((e, k))
         """Obstacle headings, (E, K), radians."""
         self._parked = zeros((e, n), dtype=bool)
-        self._points = zeros((1 + len(self._wheels), 2))
-        self._s_points = zeros(1 + len(self._wheels))
-        self._d_points = zeros(1 + len(self._wheels))
+        # Scratch for the per-step projection: every car's centre, then the wheels of the
+        # cars near an edge.
+        capacity = e * n * (1 + len(self._wheels))
+        self._points = zeros((capacity, 2))
+        self._selected = zeros(capacity, dtype=bool)
+        self._s_points = zeros(capacity)
+        self._d_points = zeros(capacity)
+        self._moved = zeros(e * n)
+        self._wheel_first = zeros(e * n, dtype=np.int64)
         self._no_cars = zeros((e, n), dtype=bool)
         self._no_cars.flags.writeable = False
         self._zero_counts = zeros((e, n), dtype=np.int64)
@@ -410,7 +416,8 @@ class RaceCore:
             self.velocity, self.yaw_rate, self.speed, self.s, self.d, self.distance,
             self.lap_origin, self.laps, self.reverse_count, self.immobile_count,
             rules.reversed_steps, rules.immobilised_steps, rules.immobilised_distance,
-            self._points, self._s_points, self._d_points, proj.origin, proj.inv_cell, proj.hi,
+            self._points, self._selected, self._moved, self._wheel_first, self._s_points,
+            self._d_points, proj.origin, proj.inv_cell, proj.hi,
             proj.ny, proj.start, proj.cert, proj.tab, proj.window, proj.tab_full,
             lut.width_left, lut.width_right, lut.inv_ds, lut.length, self._min_half_width,
             self._wheel_reach, step_distance, off_track, reversed_, immobilised,

@@ -21,7 +21,6 @@ from numba import njit
 from h2h_racing.track import project_kernel
 from h2h_racing.track_lookup import lookup
 
-_EVERY_POINT = np.zeros(0, dtype=np.bool_)
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -237,7 +236,8 @@ def _pairs_kernel(distance, prev_gap, eligible, speed, pressure, faster, length,
 def advance_cars(body_state, env_offset, wheels, racing, done, time, steps, time_limit,
                  max_cycles, dt, position, yaw, velocity, yaw_rate,
                  speed, s, d, distance, lap_origin, laps, reverse_count, immobile_count,
-                 reversed_steps, immobilised_steps, immobile_distance, points, s_points, d_points,
+                 reversed_steps, immobilised_steps, immobile_distance, points, selected, moved,
+                 wheel_first, s_points, d_points,
                  proj_origin, proj_inv_cell, proj_hi, proj_ny, proj_start, proj_cert, proj_tab,
                  proj_window, proj_tab_full, width_left, width_right, inv_ds, length,
                  min_half_width, wheel_reach, step_distance, off_track, reversed_,
@@ -271,8 +271,14 @@ def advance_cars(body_state, env_offset, wheels, racing, done, time, steps, time
     half = 0.5 * length
     num_envs, num_cars = s.shape
     num_wheels = wheels.shape[0]
+    total = num_envs * num_cars
     event = False
     out_of_time = False
+    # Pass 1: read the physics state back; queue each racing car's centre for projection, and
+    # its wheels too when it is near an edge. Distance to the centre line is 1-Lipschitz, so a
+    # wheel within ``wheel_reach`` of the centre lies at most |d| + moved + wheel_reach from
+    # the line: on the surface when that is below the track's narrowest half-width.
+    queued = total
     for e in range(num_envs):
         active = False
         for i in range(num_cars):
@@ -285,7 +291,7 @@ def advance_cars(body_state, env_offset, wheels, racing, done, time, steps, time
             k = e * num_cars + i
             x = body_state[k, 0] - env_offset[e, 0]
             y = body_state[k, 1] - env_offset[e, 1]
-            moved = math.hypot(x - position[e, i, 0], y - position[e, i, 1])
+            moved[k] = math.hypot(x - position[e, i, 0], y - position[e, i, 1])
             position[e, i, 0] = x
             position[e, i, 1] = y
             angle = body_state[k, 2]
@@ -297,6 +303,24 @@ def advance_cars(body_state, env_offset, wheels, racing, done, time, steps, time
             velocity[e, i, 1] = body_state[k, 4]
             yaw_rate[e, i] = body_state[k, 5]
             speed[e, i] = c * body_state[k, 3] + sn * body_state[k, 4]
+            points[k, 0] = x
+            points[k, 1] = y
+            selected[k] = racing[e, i]
+            wheel_first[k] = -1
+            if racing[e, i] and abs(d[e, i]) + moved[k] + wheel_reach > min_half_width:
+                wheel_first[k] = queued
+                for w in range(num_wheels):
+                    points[queued, 0] = x + c * wheels[w, 0] - sn * wheels[w, 1]
+                    points[queued, 1] = y + sn * wheels[w, 0] + c * wheels[w, 1]
+                    selected[queued] = True
+                    queued += 1
+    project_kernel(points[:queued], selected[:queued], proj_origin, proj_inv_cell, proj_hi,
+                   proj_ny, proj_start, proj_cert, proj_tab, proj_window, proj_tab_full, length,
+                   s_points, d_points)
+    # Pass 2: the rules, from the projections.
+    for e in range(num_envs):
+        for i in range(num_cars):
+            k = e * num_cars + i
             if not racing[e, i]:
                 step_distance[e, i] = 0.0
                 off_track[e, i] = False
@@ -306,31 +330,17 @@ def advance_cars(body_state, env_offset, wheels, racing, done, time, steps, time
                 immobile_count[e, i] = 0
                 new_laps[e, i] = laps[e, i]
                 continue
-            # Project the centre; the wheels only when the car is near an edge. Distance to the
-            # centre line is 1-Lipschitz, so a wheel within ``wheel_reach`` of the centre is at
-            # most |d| + wheel_reach from the line: on the surface when that is below the
-            # track's narrowest half-width.
-            points[0, 0] = x
-            points[0, 1] = y
-            count = 1
-            if abs(d[e, i]) + moved + wheel_reach > min_half_width:
-                for w in range(num_wheels):
-                    points[1 + w, 0] = x + c * wheels[w, 0] - sn * wheels[w, 1]
-                    points[1 + w, 1] = y + sn * wheels[w, 0] + c * wheels[w, 1]
-                count = 1 + num_wheels
-            project_kernel(points[:count], _EVERY_POINT, proj_origin, proj_inv_cell, proj_hi,
-                           proj_ny, proj_start, proj_cert, proj_tab, proj_window, proj_tab_full,
-                           length, s_points, d_points)
-            ds = s_points[0] - s[e, i]
+            ds = s_points[k] - s[e, i]
             ds = ds - length * math.floor((ds + half) / length)
             step_distance[e, i] = ds
             distance[e, i] += ds
-            s[e, i] = s_points[0]
-            d[e, i] = d_points[0]
+            s[e, i] = s_points[k]
+            d[e, i] = d_points[k]
             any_on = True
-            if count > 1:
-                any_on = abs(d_points[0]) + wheel_reach <= min_half_width
-                for w in range(1, count):
+            first = wheel_first[k]
+            if first >= 0:
+                any_on = abs(d_points[k]) + wheel_reach <= min_half_width
+                for w in range(first, first + num_wheels):
                     if any_on:
                         break
                     sw = s_points[w]
@@ -339,7 +349,7 @@ def advance_cars(body_state, env_offset, wheels, racing, done, time, steps, time
                               and dw >= -lookup(width_right, sw, inv_ds, length))
             off_track[e, i] = not any_on
             reverse_count[e, i] = reverse_count[e, i] + 1 if ds < 0.0 else 0
-            immobile_count[e, i] = immobile_count[e, i] + 1 if moved <= immobile_distance else 0
+            immobile_count[e, i] = immobile_count[e, i] + 1 if moved[k] <= immobile_distance else 0
             reversed_[e, i] = reverse_count[e, i] >= reversed_steps
             immobilised[e, i] = immobile_count[e, i] >= immobilised_steps
             lap = int(math.floor((distance[e, i] - lap_origin[e, i]) / length))
