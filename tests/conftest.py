@@ -1,0 +1,90 @@
+"""Shared fixtures for the h2h-racing tests (kept small: tracks, env factory, rng, geometry)."""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+# pytest's default "prepend" import mode puts this directory on sys.path before importing this
+# file; tests/h2h_racing/ (no __init__.py) would then shadow the h2h_racing package as a
+# namespace package when pytest is run as `pytest` (not `python -m pytest`). Take it off again
+# before anything imports h2h_racing. Test files import helpers via sys.modules["conftest"].
+_HERE = str(Path(__file__).resolve().parent)
+sys.path[:] = [p for p in sys.path if str(Path(p or ".").resolve()) != _HERE]
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import pytest
+
+import h2h_racing
+from h2h_racing.track import Track
+
+CIRCLE_RADIUS = 3.0  # [m] default radius of the test circle
+CIRCLE_HALF_WIDTH = 0.5  # [m] half-width of the test circle
+CIRCLE_VERTICES = 400
+
+
+def circle_track(radius: float = CIRCLE_RADIUS, half_width: float = CIRCLE_HALF_WIDTH,
+                 vertices: int = CIRCLE_VERTICES, ccw: bool = True) -> Track:
+    """A regular polygon inscribed in a circle, starting at (radius, 0), CCW by default.
+
+    Its length is the polygon perimeter ``m * 2 R sin(pi / m)`` (2 pi R minus ~1e-4 m).
+    """
+    a = np.linspace(0.0, 2.0 * math.pi, vertices, endpoint=False)
+    if not ccw:
+        a = -a
+    centre = np.stack([radius * np.cos(a), radius * np.sin(a)], axis=1)
+    return Track(centre, half_width, half_width, name=f"circle_r{radius:g}")
+
+
+def box_corners(position: np.ndarray, yaw: np.ndarray, length: float, width: float) -> np.ndarray:
+    """Corners (..., 4, 2) of oriented boxes centred at ``position`` (..., 2) with heading ``yaw``."""
+    hl, hw = 0.5 * length, 0.5 * width
+    local = np.array([[hl, hw], [-hl, hw], [-hl, -hw], [hl, -hw]])
+    c, s = np.cos(yaw)[..., None], np.sin(yaw)[..., None]
+    x = position[..., None, 0] + c * local[:, 0] - s * local[:, 1]
+    y = position[..., None, 1] + s * local[:, 0] + c * local[:, 1]
+    return np.stack([x, y], axis=-1)
+
+
+def box_penetration(corners_a: np.ndarray, corners_b: np.ndarray) -> np.ndarray:
+    """Penetration depth [m] of pairs of convex quads (..., 4, 2) by the separating-axis test.
+
+    Returns the smallest overlap of the projections over the 4 edge normals (2 per box), or 0
+    when some axis separates the boxes. Vectorised over the leading axes.
+    """
+    depth = np.full(corners_a.shape[:-2], np.inf)
+    for quad in (corners_a, corners_b):
+        for k in (0, 1):
+            edge = quad[..., k + 1, :] - quad[..., k, :]
+            axis = np.stack([-edge[..., 1], edge[..., 0]], axis=-1)
+            axis /= np.linalg.norm(axis, axis=-1, keepdims=True)
+            pa = np.einsum("...ij,...j->...i", corners_a, axis)
+            pb = np.einsum("...ij,...j->...i", corners_b, axis)
+            overlap = np.minimum(pa.max(-1), pb.max(-1)) - np.maximum(pa.min(-1), pb.min(-1))
+            depth = np.minimum(depth, overlap)
+    return np.maximum(depth, 0.0)
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    """A seeded generator (tests never use unseeded randomness)."""
+    return np.random.default_rng(12345)
+
+
+@pytest.fixture
+def tiny_track() -> Track:
+    """A 3 m radius circle, 1 m wide (L = 18.849 m)."""
+    return circle_track()
+
+
+@pytest.fixture
+def make_env() -> Callable[..., Any]:
+    """Factory: ``make_env(**overrides)`` builds a ParallelEnv on the oval with 2 cars."""
+    def factory(**overrides: Any) -> Any:
+        kwargs: dict[str, Any] = {"track": "oval", "num_cars": 2}
+        kwargs.update(overrides)
+        return h2h_racing.parallel_env(**kwargs)
+    return factory
