@@ -247,7 +247,11 @@ class RaceCore:
     @property
     def frozen(self) -> BoolArray:
         """Cars serving a penalty, (E, N)."""
-        return ~self.done & (self.frozen_until > self.time[:, None])
+        return ~self.done & ~self._penalty_over()
+
+    def _penalty_over(self) -> BoolArray:
+        """Whether each car's penalty (if any) has been served, (E, N)."""
+        return self.frozen_until <= self.time[:, None] + race.TIME_EPS
 
     @property
     def episode_progress(self) -> FloatArray:
@@ -346,7 +350,8 @@ class RaceCore:
         if self.num_obstacles:
             obs_s, obs_lane = spawn.obstacle_layout(
                 track, self.rng, m, self.num_obstacles, cfg.obstacle_positions,
-                cfg.randomize_obstacles, self.inner_sign)
+                cfg.randomize_obstacles, self.inner_sign,
+                grid_length=cfg.grid_spacing * (n - 1) + cfg.car.length)
             obs_d = spawn.lane_offset(track, obs_s, obs_lane)
             opos, oyaw = spawn.poses_on_track(track, obs_s, obs_d)
             self.obstacle_s[mask] = np.mod(obs_s, track.length)
@@ -354,7 +359,7 @@ class RaceCore:
             self.obstacle_d[mask] = obs_d
             self.obstacle_position[mask] = opos
             self.obstacle_yaw[mask] = oyaw
-        self._racing = ~self.done & (self.frozen_until <= self.time[:, None])
+        self._racing = ~self.done & self._penalty_over()
         self._pending_any = bool(self.pending_replace.any())
         self._update_ranks()
         self._gap = self.distance[:, :, None] - self.distance[:, None, :]
@@ -481,14 +486,15 @@ class RaceCore:
         if event:
             terminated = self.done & ~self._parked
         if out_of_time:
-            ended = (self.time >= rules.time_limit) | (self.steps >= self.max_cycles)
+            ended = ((self.time >= rules.time_limit - race.TIME_EPS)
+                     | (self.steps >= self.max_cycles))
             truncated = ended[:, None] & ~self.done
             self.done |= truncated
 
         # Put penalised cars back, park cars whose episode ended.
         replaced = self._no_cars
         if self._pending_any or event or out_of_time:
-            replaced = self.pending_replace & ~self.done & (self.frozen_until <= self.time[:, None])
+            replaced = self.pending_replace & ~self.done & self._penalty_over()
             newly_done = self.done & ~self._parked
             if replaced.any() or newly_done.any():
                 if replaced.any():
@@ -499,7 +505,7 @@ class RaceCore:
                 # Gaps before the next step must see the re-placed cars where they now are.
                 self._gap = self.distance[:, :, None] - self.distance[:, None, :]
             self._pending_any = bool(self.pending_replace.any())
-            self._racing = ~self.done & (self.frozen_until <= self.time[:, None])
+            self._racing = ~self.done & self._penalty_over()
         self._update_ranks()
         return StepEvents(
             terminated=terminated, truncated=truncated,

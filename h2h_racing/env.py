@@ -78,6 +78,13 @@ Every other keyword is a field of `EnvConfig` (e.g. `action_type="discrete"`,
 `num_obstacles=4`, `randomize_obstacles=True`, `grid="fixed"`, `reward=RewardConfig(...)`).
 `reset(seed, options)` accepts `options={"grid": [slot of car_0, slot of car_1, ...]}`.
 
+## Determinism and pickling
+The same seed and actions give bit-identical observations, rewards and infos. An env pickled
+mid-race continues identically, except when pickled while two bodies are touching: pymunk
+cannot pickle the impulses it caches for ongoing contacts, so such a clone continues validly
+but not bit-for-bit. Scripted drivers (``h2h_racing.policies``) read the true state from
+``env.core`` (the batched core behind the env, E = 1).
+
 ## Version history
 - v0: initial release.
 """
@@ -86,6 +93,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
+import types
 from typing import Any
 
 import numpy as np
@@ -98,6 +107,7 @@ from pettingzoo.utils.conversions import parallel_to_aec
 from h2h_racing import rewards
 from h2h_racing.config import EnvConfig, RaceRules
 from h2h_racing.core import RaceCore
+from h2h_racing.race import TIME_EPS
 from h2h_racing.sensors.state import OBS_BOUND, state_observation, state_size
 from h2h_racing.track import Track
 from h2h_racing.track_io import load_track
@@ -173,6 +183,9 @@ class RacingEnv(ParallelEnv):
         self._speed_scale = 0.5 * (config.max_speed - config.min_speed)
         self._speed_mid = 0.5 * (config.max_speed + config.min_speed)
         self._weights = rewards.weights_of(config.reward)
+        no_car = np.zeros((1, config.num_cars), dtype=bool)
+        self._no_events = types.SimpleNamespace(off_track=no_car, crashed=no_car,
+                                                collided=no_car, penalised=no_car)
         self._renderer: Any = None
         self._reset_done = False
         self._live: set[str] = set()
@@ -299,8 +312,11 @@ class RacingEnv(ParallelEnv):
             chosen = []
             for a in agents:
                 value = actions[a]
-                if (isinstance(value, (bool, np.bool_)) or not np.isscalar(value)
-                        or not float(value).is_integer() or not 0 <= int(value) < count):
+                if isinstance(value, np.ndarray) and value.ndim == 0:
+                    value = value.item()
+                integral = (isinstance(value, (numbers.Integral, np.integer))
+                            or (isinstance(value, (float, np.floating)) and float(value).is_integer()))
+                if isinstance(value, (bool, np.bool_)) or not integral or not 0 <= value < count:
                     raise ValueError(f"action of {a} must be an integer index in "
                                      f"[0, {count - 1}], got {value!r}")
                 chosen.append(int(value))
@@ -326,16 +342,13 @@ class RacingEnv(ParallelEnv):
         n = self.config.num_cars
         floats = np.empty((n, len(_FLOAT_INFO)))
         ints = np.empty((n, len(_INT_INFO)), dtype=np.int64)
-        flags = np.zeros((n, len(_BOOL_INFO)), dtype=bool)
-        no_event = core._no_cars
-        _info_kernel(core.distance[0], core.start_distance[0], 100.0 / self.track.length,
-                     core.last_lap_time[0], core.best_lap_time[0], core.laps[0], core.rank[0],
-                     core.overtakes[0], core.overtaken[0], core.defences[0], core.resets[0],
-                     core.penalties[0], core.frozen_until[0], core.time[0], core.finished[0],
-                     (events.off_track if events else no_event)[0],
-                     (events.crashed if events else no_event)[0],
-                     (events.collided if events else no_event)[0],
-                     (events.penalised if events else no_event)[0], floats, ints, flags)
+        flags = np.empty((n, len(_BOOL_INFO)), dtype=bool)
+        ev = events if events is not None else self._no_events
+        _info_kernel(core.distance, core.start_distance, 100.0 / self.track.length,
+                     core.last_lap_time, core.best_lap_time, core.laps, core.rank,
+                     core.overtakes, core.overtaken, core.defences, core.resets, core.penalties,
+                     core.frozen_until, core.time, core.finished, ev.off_track, ev.crashed,
+                     ev.collided, ev.penalised, floats, ints, flags)
         float_rows, int_rows, flag_rows = floats.tolist(), ints.tolist(), flags.tolist()
         term_rows = (terms[:, 0, :].T.tolist() if terms is not None
                      else [[0.0] * len(rewards.TERMS)] * n)
@@ -344,13 +357,20 @@ class RacingEnv(ParallelEnv):
         infos = {}
         for a in agents:
             i = self._index[a]
-            info = dict(zip(_FLOAT_INFO, float_rows[i]))
-            info.update(zip(_INT_INFO, int_rows[i]))
-            info.update(zip(_BOOL_INFO, flag_rows[i]))
-            info["lap_times"] = list(lap_times[i])
-            info["time"] = time
-            info["reward_terms"] = dict(zip(rewards.TERMS, term_rows[i]))
-            infos[a] = info
+            f, k, b, t = float_rows[i], int_rows[i], flag_rows[i], term_rows[i]
+            # One dict display per agent (keys as in _FLOAT_INFO, _INT_INFO, _BOOL_INFO and
+            # rewards.TERMS): much cheaper than building it key by key.
+            infos[a] = {
+                "progress": f[0], "distance": f[1], "last_lap_time": f[2], "best_lap_time": f[3],
+                "gap_to_leader": f[4],
+                "lap": k[0], "rank": k[1], "overtakes": k[2], "overtaken": k[3],
+                "defences": k[4], "resets": k[5], "penalties": k[6],
+                "frozen": b[0], "finished": b[1], "off_track": b[2], "crashed": b[3],
+                "collided": b[4], "penalised": b[5],
+                "lap_times": list(lap_times[i]), "time": time,
+                "reward_terms": {"progress": t[0], "speed": t[1], "off_track": t[2],
+                                 "crash": t[3], "overtake": t[4], "lap": t[5], "time": t[6]},
+            }
         return infos
 
     def render(self) -> npt.NDArray[np.uint8] | None:
@@ -396,7 +416,7 @@ def _scale_actions(values, max_steer, speed_mid, speed_half, steer, speed):  # p
     return True
 
 
-_FLOAT_INFO = ("progress", "distance", "last_lap_time", "best_lap_time")
+_FLOAT_INFO = ("progress", "distance", "last_lap_time", "best_lap_time", "gap_to_leader")
 _INT_INFO = ("lap", "rank", "overtakes", "overtaken", "defences", "resets", "penalties")
 _BOOL_INFO = ("frozen", "finished", "off_track", "crashed", "collided", "penalised")
 
@@ -405,26 +425,30 @@ _BOOL_INFO = ("frozen", "finished", "off_track", "crashed", "collided", "penalis
 def _info_kernel(distance, start_distance, percent_per_metre, last_lap, best_lap, laps, rank,
                  overtakes, overtaken, defences, resets, penalties, frozen_until, time, finished,
                  off_track, crashed, collided, penalised, floats, ints, flags):  # pragma: no cover
-    # Gathers the per-car info fields of one env copy into three small tables, so that the
+    # Gathers the per-car info fields of env copy 0 into three small tables, so that the
     # per-agent dicts are built from three tolist() calls instead of one per field.
-    for i in range(distance.shape[0]):
-        floats[i, 0] = (distance[i] - start_distance[i]) * percent_per_metre
-        floats[i, 1] = distance[i]
-        floats[i, 2] = last_lap[i]
-        floats[i, 3] = best_lap[i]
-        ints[i, 0] = laps[i]
-        ints[i, 1] = rank[i]
-        ints[i, 2] = overtakes[i]
-        ints[i, 3] = overtaken[i]
-        ints[i, 4] = defences[i]
-        ints[i, 5] = resets[i]
-        ints[i, 6] = penalties[i]
-        flags[i, 0] = frozen_until[i] > time
-        flags[i, 1] = finished[i]
-        flags[i, 2] = off_track[i]
-        flags[i, 3] = crashed[i]
-        flags[i, 4] = collided[i]
-        flags[i, 5] = penalised[i]
+    leader = distance[0, 0]
+    for i in range(distance.shape[1]):
+        leader = max(leader, distance[0, i])
+    for i in range(distance.shape[1]):
+        floats[i, 4] = leader - distance[0, i]
+        floats[i, 0] = (distance[0, i] - start_distance[0, i]) * percent_per_metre
+        floats[i, 1] = distance[0, i]
+        floats[i, 2] = last_lap[0, i]
+        floats[i, 3] = best_lap[0, i]
+        ints[i, 0] = laps[0, i]
+        ints[i, 1] = rank[0, i]
+        ints[i, 2] = overtakes[0, i]
+        ints[i, 3] = overtaken[0, i]
+        ints[i, 4] = defences[0, i]
+        ints[i, 5] = resets[0, i]
+        ints[i, 6] = penalties[0, i]
+        flags[i, 0] = frozen_until[0, i] > time[0] + TIME_EPS
+        flags[i, 1] = finished[0, i]
+        flags[i, 2] = off_track[0, i]
+        flags[i, 3] = crashed[0, i]
+        flags[i, 4] = collided[0, i]
+        flags[i, 5] = penalised[0, i]
 
 
 def parallel_env(**kwargs: Any) -> RacingEnv:

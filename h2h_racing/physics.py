@@ -123,6 +123,8 @@ class PhysicsWorld:
 
     def __setstate__(self, state: dict[str, object]) -> None:
         self.__dict__.update(state)
+        # Unpickled bodies are new pymunk objects with new ids.
+        self._index_of = {body.id: k for k, body in enumerate(self._bodies)}
         self._read_memory = self._read_memory.copy()
         self._state = self._read_memory[: self._state.size].reshape(self._state.shape)
         self._write = self._write.copy()

@@ -23,6 +23,11 @@ from h2h_racing.track_lookup import lookup
 
 
 FloatArray = npt.NDArray[np.float64]
+
+TIME_EPS = 1e-9
+"""Times closer than this [s] are equal. Simulated time is ``steps * dt``, and penalties and
+limits are decimal seconds that ``dt = 1/15 s`` does not divide exactly in binary floating
+point (75 * (1/15) may differ from 5.0 in the last bit)."""
 BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.int64]
 
@@ -261,8 +266,8 @@ def advance_cars(body_state, env_offset, wheels, racing, done, time, steps, time
     - ``new_laps``: complete laps since ``lap_origin``, floor((distance - origin) / L), never
       fewer than ``laps``.
 
-    The clock ``time`` and step count ``steps`` (E,) advance for env copies with a car not
-    done.
+    The step count ``steps`` (E,) advances for env copies with a car not done, and their
+    clock is ``time = steps * dt`` (no accumulated rounding).
 
     Returns:
         ``(event, out_of_time)``: whether any car went off track, reversed, was immobilised
@@ -284,9 +289,10 @@ def advance_cars(body_state, env_offset, wheels, racing, done, time, steps, time
         for i in range(num_cars):
             active = active or not done[e, i]
         if active:
-            time[e] += dt
             steps[e] += 1
-        out_of_time = out_of_time or time[e] >= time_limit or steps[e] >= max_cycles
+            time[e] = steps[e] * dt
+        out_of_time = (out_of_time or time[e] >= time_limit - TIME_EPS
+                       or steps[e] >= max_cycles)
         for i in range(num_cars):
             k = e * num_cars + i
             x = body_state[k, 0] - env_offset[e, 0]

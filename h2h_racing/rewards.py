@@ -74,7 +74,7 @@ def _reward_kernel(weights, progress, speed, racing, off_track, crashed, overtak
                       1.0 if lap_completed[e, i] else 0.0, active)
             total = 0.0
             for k in range(7):
-                term = weights[k] * values[k]
+                term = weights[k] * values[k] + 0.0  # + 0.0 turns -0.0 into 0.0
                 terms[k, e, i] = term
                 total += term
             reward[e, i] = total

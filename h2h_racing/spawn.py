@@ -16,7 +16,7 @@ IntArray = npt.NDArray[np.int64]
 OBSTACLE_CLEAR_START = 3.0
 """No obstacle is placed within this many metres after the start line [m]."""
 OBSTACLE_CLEAR_END = 1.0
-"""No obstacle is placed within this many metres before the start line [m]."""
+"""No obstacle is placed within this many metres behind the start grid's last slot [m]."""
 
 
 def lane_offset(track: Track, s: FloatArray, lane: FloatArray) -> FloatArray:
@@ -68,13 +68,14 @@ def poses_on_track(track: Track, s: FloatArray, d: FloatArray) -> tuple[FloatArr
 
 def obstacle_layout(track: Track, rng: np.random.Generator, num_envs: int, count: int,
                     positions: tuple[tuple[float, int], ...] | None, randomize: bool,
-                    inner_sign: int) -> tuple[FloatArray, FloatArray]:
+                    inner_sign: int, grid_length: float = 0.0) -> tuple[FloatArray, FloatArray]:
     """Place ``count`` obstacles per env copy on the lanes.
 
     Fixed ``positions`` are (fraction of the lap, lane). Otherwise obstacles are spaced
     evenly over the lap, clear of the start, on alternating lanes starting with the inner
     lane (DeepRacer's ``obstacles_agent_ctrl``); with ``randomize`` each one is re-drawn
-    uniformly within its share of the lap, on a random lane, per env copy.
+    uniformly within its share of the lap, on a random lane, per env copy. ``grid_length``
+    [m] is how far the start grid reaches behind the line; obstacles keep clear of it.
 
     Returns:
         ``(s (M, K), lane (M, K))``.
@@ -87,7 +88,7 @@ def obstacle_layout(track: Track, rng: np.random.Generator, num_envs: int, count
         s = np.broadcast_to(fixed[:, 0] * length, (num_envs, len(fixed))).copy()
         lane = np.broadcast_to(fixed[:, 1], (num_envs, len(fixed))).copy()
         return s, lane
-    usable = length - OBSTACLE_CLEAR_START - OBSTACLE_CLEAR_END
+    usable = length - OBSTACLE_CLEAR_START - OBSTACLE_CLEAR_END - grid_length
     share = usable / count
     k = np.arange(count, dtype=np.float64)
     if randomize:

@@ -177,9 +177,6 @@ class TestPenalties:
         ev = command(core, 0.0, 1.0)
         assert ev.progress[0, 0] > 0.0
 
-    @pytest.mark.xfail(reason="BUG: the clock is accumulated (time += dt), so t + 75 * (1/15) "
-                              "ends 1 ulp below frozen_until = t + 5.0 and the car stays frozen "
-                              "76 steps (5.067 s) instead of 75 (5 s)", strict=True)
     def test_penalty_lasts_exactly_75_steps(self) -> None:
         core = make_core(off_track_penalty=5.0)
         self._drive_off(core)
@@ -212,11 +209,9 @@ class TestPenalties:
             ev = command(core, circle_steer(core, 0.5), 0.5)
             if ev.truncated[0, 0]:
                 break
-        # 1 s = 15 steps (16 with the accumulated clock, see the xfail below).
+        # 1 s = 15 steps of 1/15 s.
         assert k in (15, 16) and not ev.terminated[0, 0]
 
-    @pytest.mark.xfail(reason="BUG: 15 accumulated steps of 1/15 s give 0.9999999999999999 < 1.0, "
-                              "so time_limit=1.0 truncates after 16 steps (1.067 s)", strict=True)
     def test_time_limit_exact_step(self) -> None:
         core = make_core(time_limit=1.0)
         for k in range(1, 20):
