@@ -80,6 +80,19 @@ def _clip(value: float) -> float:  # pragma: no cover
 
 
 @njit(cache=True)
+def _take_nearest(distance):  # pragma: no cover
+    """Return the index of the smallest finite entry (lowest index on ties) and mark it taken
+    (set to inf); -1 when every entry is inf."""
+    best = -1
+    for j in range(distance.shape[0]):
+        if distance[j] < np.inf and (best < 0 or distance[j] < distance[best]):
+            best = j
+    if best >= 0:
+        distance[best] = np.inf
+    return best
+
+
+@njit(cache=True)
 def _state_kernel(s, d, yaw, velocity, yaw_rate, steer, speed, rank, racing, done,
                   obstacle_s, obstacle_d, heading, curvature, width_left, width_right,
                   inv_ds, length, max_speed, max_steer, m_slots, k_slots, lookahead,
@@ -91,6 +104,7 @@ def _state_kernel(s, d, yaw, velocity, yaw_rate, steer, speed, rank, racing, don
     half = 0.5 * length
     gaps = np.empty(num_cars)
     ahead = np.empty(max(num_obstacles, 1))
+    ahead_distance = np.empty(max(num_obstacles, 1))
     for e in range(num_envs):
         for i in range(num_cars):
             si = s[e, i]
@@ -122,10 +136,7 @@ def _state_kernel(s, d, yaw, velocity, yaw_rate, steer, speed, rank, racing, don
                 gaps[j] = abs(gap) if (j != i and not done[e, j]
                                        and abs(gap) <= SENSE_RANGE) else np.inf
             for slot in range(m_slots):
-                best = -1
-                for j in range(num_cars):
-                    if gaps[j] < np.inf and (best < 0 or gaps[j] < gaps[best]):
-                        best = j
+                best = _take_nearest(gaps)
                 base = col + 4 * slot
                 if best < 0:
                     for f in range(4):
@@ -137,24 +148,20 @@ def _state_kernel(s, d, yaw, velocity, yaw_rate, steer, speed, rank, racing, don
                 row[base + 1] = _clip(gap / SENSE_RANGE)
                 row[base + 2] = _clip(d[e, best] - di)
                 row[base + 3] = _clip((speed[e, best] - speed[e, i]) * inv_v)
-                gaps[best] = np.inf
             col += 4 * m_slots
             # Obstacles: the k_slots nearest ahead within SENSE_RANGE.
             for k in range(num_obstacles):
                 a = obstacle_s[e, k] - si
                 a = a - length * math.floor(a / length)
                 ahead[k] = a if a <= SENSE_RANGE else np.inf
+                ahead_distance[k] = a
             for slot in range(k_slots):
-                best = -1
-                for k in range(num_obstacles):
-                    if ahead[k] < np.inf and (best < 0 or ahead[k] < ahead[best]):
-                        best = k
                 base = col + 3 * slot
+                best = _take_nearest(ahead[:num_obstacles])
                 if best < 0:
                     for f in range(3):
                         row[base + f] = 0.0
                     continue
                 row[base] = 1.0
-                row[base + 1] = ahead[best] / SENSE_RANGE
+                row[base + 1] = _clip(ahead_distance[best] / SENSE_RANGE)
                 row[base + 2] = _clip(obstacle_d[e, best] - di)
-                ahead[best] = np.inf
