@@ -25,6 +25,8 @@ TRACK_FORMAT = "h2h-racing-track/1"
 """Value of the ``"format"`` key of a catalogue JSON file."""
 _JSON_KEYS = ("format", "name", "description", "x", "y", "width_left", "width_right")
 _SUFFIXES = (".json", ".npy", ".csv")
+RANDOM_PREFIX = "random:"
+"""``load_track("random:<seed>")`` generates a track with :func:`h2h_racing.track_gen.random_track`."""
 
 
 def catalogue_dir() -> Path:
@@ -56,8 +58,9 @@ def load_track(
     """Load a track from the catalogue or from a file.
 
     Args:
-        name_or_path: A catalogue name (see :func:`list_tracks`), or a path ending in ``.json``, ``.npy`` or
-            ``.csv``.
+        name_or_path: A catalogue name (see :func:`list_tracks`), ``"random:<seed>"`` for a procedurally
+            generated track (:func:`h2h_racing.track_gen.random_track` with that integer seed), or a path
+            ending in ``.json``, ``.npy`` or ``.csv``.
         scale: Optional scaling about the origin: a float scales lengths and widths alike; a pair
             ``(length_scale, width_scale)`` scales coordinates and widths separately (real circuits need
             this: Catalunya's 4.65 km, ~11 m wide lap becomes DeepRacer's 60 m, 0.9 m wide one with about
@@ -73,25 +76,28 @@ def load_track(
     """
     text = str(name_or_path)
     cat = catalogue()
-    if isinstance(name_or_path, str) and text in cat:
+    if isinstance(name_or_path, str) and text.startswith(RANDOM_PREFIX):
+        track = _random(text)
+    elif isinstance(name_or_path, str) and text in cat:
         path = cat[text]
     else:
         path = Path(name_or_path)
         if path.suffix.lower() not in _SUFFIXES:
             names = ", ".join(cat) or "(none found in " + str(catalogue_dir()) + ")"
             raise ValueError(
-                f"Unknown track {text!r}. Expected a catalogue name ({names}) or a path ending in "
-                f"{', '.join(_SUFFIXES)}."
+                f"Unknown track {text!r}. Expected a catalogue name ({names}), 'random:<seed>', or a "
+                f"path ending in {', '.join(_SUFFIXES)}."
             )
         if not path.is_file():
             raise FileNotFoundError(f"Track file not found: {path.resolve()}")
-    suffix = path.suffix.lower()
-    if suffix == ".json":
-        track = _read_json(path)
-    elif suffix == ".npy":
-        track = _read_npy(path)
-    else:
-        track = _read_csv(path)
+    if not text.startswith(RANDOM_PREFIX):
+        suffix = path.suffix.lower()
+        if suffix == ".json":
+            track = _read_json(path)
+        elif suffix == ".npy":
+            track = _read_npy(path)
+        else:
+            track = _read_csv(path)
     if scale is not None:
         track = _scaled(track, scale)
     return track.reversed() if reverse else track
@@ -237,3 +243,17 @@ def _scaled(track: Track, scale: Any) -> Track:
         right_border=track.right_border * ls if uniform and track._explicit_borders else None,
         waypoints=track.waypoints * ls,
     )
+
+
+def _random(text: str) -> Track:
+    """Build the procedurally generated track named ``random:<seed>``."""
+    from h2h_racing.track_gen import random_track
+
+    seed_text = text[len(RANDOM_PREFIX):]
+    try:
+        seed = int(seed_text)
+    except ValueError:
+        raise ValueError(f"Expected 'random:<integer seed>', got {text!r}.") from None
+    spec = random_track(np.random.default_rng(seed))
+    return Track(spec.centre, spec.width_left, spec.width_right, name=text,
+                 description=spec.description, source=text)

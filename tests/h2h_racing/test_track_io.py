@@ -187,3 +187,19 @@ class TestCsv:
         # At 1/20 scale (232 m lap, 0.43-0.89 m wide) it is a valid track.
         t = load_track(CATALUNYA, scale=0.05)
         assert t.length == pytest.approx(length * 0.05) and not t.is_ccw
+
+
+class TestRandomTracks:
+    """``load_track("random:<seed>")`` builds a procedurally generated track."""
+
+    def test_same_seed_same_track_and_different_seed_different_track(self) -> None:
+        a, b, c = load_track("random:3"), load_track("random:3"), load_track("random:4")
+        assert np.array_equal(a.centre, b.centre)
+        assert a.name == "random:3"
+        assert a.centre.shape != c.centre.shape or not np.array_equal(a.centre, c.centre)
+        # random_track's default lap length range is 20-45 m.
+        assert 20.0 <= a.length <= 45.0
+
+    def test_bad_seed_is_a_clear_error(self) -> None:
+        with pytest.raises(ValueError, match="random:<integer seed>"):
+            load_track("random:abc")
