@@ -1,6 +1,7 @@
 """The ``h2h-racing`` command line.
 
     h2h-racing race [--track speedway] [--drivers racing_line,pure_pursuit] [...]
+    h2h-racing camera [--track speedway] [--car 1] [--steps 20] [--out camera.png]
     h2h-racing tracks list
     h2h-racing tracks show NAME [--out NAME.png]
     h2h-racing tracks import FILE [--name NAME] [--scale S | --scale L,W] [--reverse] [--out F]
@@ -80,6 +81,29 @@ def _cmd_race(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_camera(args: argparse.Namespace) -> int:
+    import h2h_racing
+    from h2h_racing.policies import make_driver
+    from h2h_racing.sensors.camera import save_camera_png
+
+    drivers = [make_driver(d.strip()) for d in args.drivers.split(",") if d.strip()]
+    if not 0 <= args.car < len(drivers):
+        raise ValueError(f"--car must be in [0, {len(drivers) - 1}] (one car per driver), "
+                         f"got {args.car}")
+    env = h2h_racing.parallel_env(track=args.track, num_cars=len(drivers), grid="fixed")
+    env.reset(seed=args.seed)
+    for driver in drivers:
+        driver.reset(env.core)
+    for _ in range(args.steps):
+        if not env.agents:
+            break
+        env.step({agent: drivers[i].act(env.core, i)[0]
+                  for i, agent in enumerate(env.possible_agents) if agent in env.agents})
+    out = save_camera_png(env.core, args.car, args.out, scale=args.scale)
+    print(f"car_{args.car}'s camera after {args.steps} steps on {env.track.name} -> {out}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Return the argument parser of the ``h2h-racing`` command."""
     parser = argparse.ArgumentParser(prog="h2h-racing", description=__doc__,
@@ -97,6 +121,17 @@ def build_parser() -> argparse.ArgumentParser:
     race.add_argument("--seed", type=int, default=0)
     race.add_argument("--video", default=None, help="write a top-down MP4 of the race here")
     race.set_defaults(func=_cmd_race)
+
+    camera = sub.add_parser("camera", help="save what a car's camera sees as a PNG")
+    camera.add_argument("--track", default="speedway", help="catalogue name or track file")
+    camera.add_argument("--drivers", default="pure_pursuit,racing_line",
+                        help="comma-separated drivers, one per car (car 0 first on the grid)")
+    camera.add_argument("--car", type=int, default=1, help="whose camera (car index)")
+    camera.add_argument("--steps", type=int, default=20, help="steps to drive before the shot")
+    camera.add_argument("--seed", type=int, default=0)
+    camera.add_argument("--scale", type=int, default=4, help="enlarge the 160x120 image")
+    camera.add_argument("--out", default="camera.png", help="PNG path")
+    camera.set_defaults(func=_cmd_camera)
 
     tracks = sub.add_parser("tracks", help="list, preview and import tracks")
     tsub = tracks.add_subparsers(dest="tracks_command", required=True)

@@ -368,7 +368,7 @@ class RaceCore:
     def _sync_physics(self) -> None:
         """Write every body's pose and velocity into pymunk (after resets and teleports)."""
         assert self.world is not None
-        e, n, k = self.num_envs, self.num_cars, self.num_obstacles
+        e, k = self.num_envs, self.num_obstacles
         car_pos = (self.position + self.env_offset[:, None, :]).reshape(-1, 2)
         obs_pos = (self.obstacle_position + self.env_offset[:, None, :]).reshape(-1, 2)
         position = np.concatenate([car_pos, obs_pos])

@@ -7,7 +7,7 @@
 | Agents | `car_0` ... `car_{N-1}` (N = `num_cars`, 1 to 16) |
 | Action space (continuous) | `Box(-1, 1, (2,), float32)`: `[steer, speed]` |
 | Action space (discrete) | `Discrete(K)`: index into `discrete_actions` (steering deg, speed m/s) |
-| Observation space | `Box(-5, 5, (F,), float32)`, F = 19 + 4 x opponent_slots + 3 x obstacle_slots (27 + 6 by default) |
+| Observation space | `Box(-5, 5, (F,), float32)`, F = 19 + 4 x opponent_slots + 3 x obstacle_slots (33 by default); with `sensors=(...)` a `Dict` of `state`, `camera` `Box(0, 255, (120, 160, 1), uint8)` and `lidar` `Box(0.15, 1.0, (64,), float32)` |
 | Step | 1/15 s of simulated time (DeepRacer's rate), 4 physics sub-steps |
 | Render modes | `rgb_array` (top-down spectator frame; observations never read it) |
 
@@ -25,10 +25,22 @@ as on the real car. Finite values outside [-1, 1] are clipped; NaN or inf raise
 (steering angle in degrees, speed in m/s); out-of-range indices raise `ValueError`.
 
 ## Observations
-A normalised state vector per car (see `h2h_racing.sensors.state` for the exact layout):
-speed, sideslip, yaw rate, steering, lateral offset, heading error, curvature look-ahead
-up to 5 m, track half-widths, race position, penalty flag, and for the nearest opponents
-and obstacles ahead their track-relative gap, lateral offset and relative speed.
+`sensors=("state",)` (default): a normalised state vector per car (see
+`h2h_racing.sensors.state` for the exact layout): speed, sideslip, yaw rate, steering,
+lateral offset, heading error, curvature look-ahead up to 5 m, track half-widths, race
+position, penalty flag, and for the nearest opponents and obstacles ahead their
+track-relative gap, lateral offset and relative speed.
+
+Any other choice, e.g. `sensors=("camera", "lidar", "state")`, gives a `Dict` with those keys:
+- `camera`: DeepRacer's front camera (0.13 m high, 0.145 m ahead, pitched down 15 deg, 64.7 deg
+  horizontal field of view), 160 x 120 greyscale uint8 by default, shape (H, W, C) with
+  C = cameras x frame_stack (`camera=CameraConfig(stereo=True, frame_stack=4, ...)`); it shows
+  the track with its painted lines, the floor, the horizon, other cars and obstacles as shaded
+  3-D boxes (see `h2h_racing.sensors.camera`);
+- `lidar`: 64 ranges over +-150 deg in [0.15, max_range] m (1.0 by default, up to 12), seeing
+  cars and obstacles; optional Gaussian noise (seeded from the env's seed); or DeepRacer's
+  `SECTOR_LIDAR` (8 binary sectors within 0.5 m) with `lidar=LidarConfig(mode="sector_lidar")`.
+Sensors read the simulation state only, never the spectator renderer.
 
 ## Rewards
 The weighted sum of these terms (weights in `RewardConfig`; each weighted term is also in
@@ -86,7 +98,7 @@ but not bit-for-bit. Scripted drivers (``h2h_racing.policies``) read the true st
 ``env.core`` (the batched core behind the env, E = 1).
 
 ## Version history
-- v0: initial release.
+- v0: initial release (state, camera and lidar observations).
 """
 
 from __future__ import annotations
@@ -108,6 +120,8 @@ from h2h_racing import rewards
 from h2h_racing.config import EnvConfig, RaceRules
 from h2h_racing.core import RaceCore
 from h2h_racing.race import TIME_EPS
+from h2h_racing.sensors.camera import CameraSensor
+from h2h_racing.sensors.lidar import LidarSensor
 from h2h_racing.sensors.state import OBS_BOUND, state_observation, state_size
 from h2h_racing.track import Track
 from h2h_racing.track_io import load_track
@@ -169,7 +183,20 @@ class RacingEnv(ParallelEnv):
         self.agents: list[str] = []
         self._index = {agent: i for i, agent in enumerate(self.possible_agents)}
         size = state_size(config.opponent_slots, config.obstacle_slots)
-        obs_space = spaces.Box(-OBS_BOUND, OBS_BOUND, (size,), np.float32)
+        state_space = spaces.Box(-OBS_BOUND, OBS_BOUND, (size,), np.float32)
+        obstacle_size = (config.obstacle_length, config.obstacle_width)
+        self._camera = (CameraSensor(config.camera, self.track, config.car, obstacle_size)
+                        if "camera" in config.sensors else None)
+        self._lidar = (LidarSensor(config.lidar, config.car, obstacle_size)
+                       if "lidar" in config.sensors else None)
+        self._sensor_rng = np.random.default_rng()
+        if config.sensors == ("state",):
+            obs_space: spaces.Space = state_space
+        else:
+            parts = {"state": state_space,
+                     "camera": self._camera.space() if self._camera else None,
+                     "lidar": self._lidar.space() if self._lidar else None}
+            obs_space = spaces.Dict({key: parts[key] for key in config.sensors})
         if config.action_type == "continuous":
             act_space: spaces.Space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         else:
@@ -231,6 +258,12 @@ class RacingEnv(ParallelEnv):
                 raise ValueError(f"options['grid'] must list one slot per car "
                                  f"({self.config.num_cars}), got {options['grid']!r}")
         self.core.reset(seed=seed, slots=slots)
+        if self._lidar is not None and self.config.lidar.noise_std > 0:
+            # The lidar's noise has a generator of its own, seeded from the env's, so that
+            # turning noise on does not change the race's random stream.
+            self._sensor_rng = np.random.default_rng(self.core.rng.integers(2**63))
+        if self._camera is not None:
+            self._camera.reset(self.core)
         self.agents = self.possible_agents[:]
         self._live = set(self.agents)
         self._reset_done = True
@@ -332,9 +365,21 @@ class RacingEnv(ParallelEnv):
         speed[0, idx] = speed_values
         return steer, speed
 
-    def _observations(self) -> dict[str, npt.NDArray[np.float32]]:
-        obs = state_observation(self.core)[0]
-        return {a: obs[i] for i, a in enumerate(self.possible_agents)}
+    def _observations(self) -> dict[str, Any]:
+        sensors = self.config.sensors
+        if sensors == ("state",):
+            obs = state_observation(self.core)[0]
+            return {a: obs[i] for i, a in enumerate(self.possible_agents)}
+        arrays = {}
+        for key in sensors:
+            if key == "state":
+                arrays[key] = state_observation(self.core)[0]
+            elif key == "camera":
+                arrays[key] = self._camera.observe(self.core)[0]
+            else:
+                arrays[key] = self._lidar.observe(self.core, self._sensor_rng)[0]
+        return {a: {key: value[i] for key, value in arrays.items()}
+                for i, a in enumerate(self.possible_agents)}
 
     def _infos(self, agents: list[str], events: Any,
                terms: npt.NDArray[np.float64] | None) -> dict[str, dict[str, Any]]:

@@ -76,3 +76,21 @@ class TestRaceCommand:
         capture.release()
         # One frame per step plus the start frame; a 1-lap race on the 20 m oval takes > 5 s.
         assert frames > 5 * 15
+
+
+class TestCameraCommand:
+    """``h2h-racing camera`` saves what a car's camera sees."""
+
+    def test_camera_png_is_written_and_scaled(self, tmp_path: Path) -> None:
+        out = tmp_path / "cam.png"
+        assert main(["camera", "--track", "oval", "--steps", "5", "--scale", "2",
+                     "--out", str(out)]) == 0
+        image = cv2.imread(str(out), cv2.IMREAD_GRAYSCALE)
+        # The default camera is 160 x 120; scale 2 gives 320 x 240.
+        assert image.shape == (240, 320)
+        # Sky above the horizon is lighter than the track surface below it.
+        assert image[:20].mean() > image[-20:].mean()
+
+    def test_car_index_out_of_range(self, capsys: pytest.CaptureFixture[str]) -> None:
+        assert main(["camera", "--track", "oval", "--car", "5"]) == 2
+        assert "--car" in capsys.readouterr().err
