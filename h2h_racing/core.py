@@ -236,6 +236,8 @@ class RaceCore:
         self._racing = np.ones((e, n), dtype=bool)
         self._pending_any = False
         self._pressure = zeros((e, n, n))
+        self._passed = zeros((e, n, n), dtype=bool)
+        self._defended = zeros((e, n, n), dtype=bool)
         self._faster = zeros((e, n, n), dtype=bool)
         self._gap = zeros((e, n, n))
 
@@ -401,12 +403,11 @@ class RaceCore:
         self.speed_command = speed_command
 
         # Phase 1: dynamics for all cars, then contacts and integration in pymunk.
-        velocity, yaw_rate, steer = self.model.step(
+        self.model.step_into(
             self.yaw.reshape(-1), self.velocity.reshape(-1, 2), self.yaw_rate.reshape(-1),
             self.steer.reshape(-1), steer_command.reshape(-1), speed_command.reshape(-1),
-            racing.reshape(-1), dt)
-        self.steer = steer.reshape(e, n)
-        world.step(velocity, yaw_rate, dt, cfg.physics_substeps)
+            racing.reshape(-1), dt, world.command)
+        world.step(dt, cfg.physics_substeps)
 
         # Phase 2: rules on the new snapshot, per car in one compiled pass.
         proj, lut = self._projector, self.lookup
@@ -452,13 +453,12 @@ class RaceCore:
         overtakes_now = overtaken_now = defences_now = self._zero_counts
         if n > 1:
             still = racing & ~finished_now if event else racing
-            gap = np.empty((e, n, n))
-            passed = np.zeros((e, n, n), dtype=bool)
-            defended = np.zeros((e, n, n), dtype=bool)
+            # The kernel updates the previous gaps in place and fills the scratch flags.
+            passed, defended = self._passed, self._defended
             any_passed, any_defended = race.pairs_kernel(
                 self.distance, self._gap, still, self.speed, self._pressure, self._faster,
-                track.length, dt, rules.defence_gap, rules.defence_time, gap, passed, defended)
-            self._gap = gap
+                track.length, dt, rules.defence_gap, rules.defence_time, self._gap, passed,
+                defended)
             if any_passed:
                 overtakes_now = passed.sum(axis=2)
                 overtaken_now = passed.sum(axis=1)

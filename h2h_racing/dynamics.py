@@ -81,7 +81,7 @@ class SingleTrackModel:
         self.params = np.array([
             car.max_steer_rate, car.speed_gain, car.max_brake, car.max_accel, self._k11,
             self._k12, self._k21, self._k22, self._b1, self._b2, cf, cr, self.max_force_front,
-            self.max_force_rear, lf, lr, m, iz, wb])
+            self.max_force_rear, lf, lr, m, iz, wb, car.max_steer])
         """Constants of the kernel, in the order ``_single_track_step`` unpacks them."""
 
     def step(
@@ -102,7 +102,8 @@ class SingleTrackModel:
             velocity: World-frame velocity, shape (C, 2), m/s.
             yaw_rate: Yaw rate, shape (C,), rad/s.
             steer: Current front steering angle, shape (C,), radians (left positive).
-            steer_command: Commanded steering angle, shape (C,), radians, within +-max_steer.
+            steer_command: Commanded steering angle, shape (C,), radians (clipped to
+                +-max_steer).
             speed_command: Commanded forward speed, shape (C,), m/s.
             racing: Cars that move; the others are held still, shape (C,).
             dt: Step length [s].
@@ -112,12 +113,19 @@ class SingleTrackModel:
             hold during the step (rotated to the mid-step heading, so that the chord driven
             during the step follows the arc), yaw rate (C,) and steering angle (C,).
         """
-        out_velocity = np.empty_like(velocity)
-        out_yaw_rate = np.empty_like(yaw_rate)
-        out_steer = np.empty_like(steer)
+        command = np.empty((len(yaw), 3))
+        new_steer = steer.copy()
+        self.step_into(yaw, velocity, yaw_rate, new_steer, steer_command, speed_command, racing,
+                       dt, command)
+        return command[:, :2], command[:, 2], new_steer
+
+    def step_into(self, yaw: FloatArray, velocity: FloatArray, yaw_rate: FloatArray,
+                  steer: FloatArray, steer_command: FloatArray, speed_command: FloatArray,
+                  racing: npt.NDArray[np.bool_], dt: float, command: FloatArray) -> None:
+        """Like :meth:`step`, but update ``steer`` in place and write (vx, vy, omega) of each
+        car into ``command`` (C, 3), e.g. the physics world's velocity buffer."""
         _single_track_step(yaw, velocity, yaw_rate, steer, steer_command, speed_command, racing,
-                           dt, self.params, out_velocity, out_yaw_rate, out_steer)
-        return out_velocity, out_yaw_rate, out_steer
+                           dt, self.params, command)
 
     def steady_state_yaw_rate(self, speed: float, steer: float) -> float:
         """Return the linear model's steady-state yaw rate [rad/s] (for tests and docs).
@@ -133,25 +141,26 @@ class SingleTrackModel:
 
 @njit(cache=True, fastmath=False)
 def _single_track_step(yaw, velocity, yaw_rate, steer, steer_command, speed_command, racing,
-                       dt, params, out_velocity, out_yaw_rate, out_steer):  # pragma: no cover
+                       dt, params, command):  # pragma: no cover
     """Compiled loop over cars of the single-track step (see the module docstring)."""
     (steer_rate, gain, brake, accel_max, k11, k12, k21, k22, b1, b2, cf, cr, fmax_f, fmax_r,
-     lf, lr, mass, iz, wheelbase) = params
+     lf, lr, mass, iz, wheelbase, max_steer) = params
     max_delta = steer_rate * dt
     for i in range(yaw.shape[0]):
         if not racing[i]:
-            out_velocity[i, 0] = 0.0
-            out_velocity[i, 1] = 0.0
-            out_yaw_rate[i] = 0.0
-            out_steer[i] = 0.0
+            command[i, 0] = 0.0
+            command[i, 1] = 0.0
+            command[i, 2] = 0.0
+            steer[i] = 0.0
             continue
         c = math.cos(yaw[i])
         s = math.sin(yaw[i])
         vx = c * velocity[i, 0] + s * velocity[i, 1]
         vy = c * velocity[i, 1] - s * velocity[i, 0]
         r = yaw_rate[i]
-        # Steering servo with a rate limit.
-        delta = steer[i] + min(max(steer_command[i] - steer[i], -max_delta), max_delta)
+        # Steering servo with a rate limit, toward the command clipped to the steering lock.
+        target = min(max(steer_command[i], -max_steer), max_steer)
+        delta = steer[i] + min(max(target - steer[i], -max_delta), max_delta)
         # Speed controller: a_x = k (v_cmd - v_x), limited to [-brake, accel].
         ax = min(max(gain * (speed_command[i] - vx), -brake), accel_max)
         vx = vx + ax * dt
@@ -184,7 +193,7 @@ def _single_track_step(yaw, velocity, yaw_rate, steer, steer_command, speed_comm
         mid = yaw[i] + 0.5 * dt * r_new
         cm = math.cos(mid)
         sm = math.sin(mid)
-        out_velocity[i, 0] = cm * vx - sm * vy_new
-        out_velocity[i, 1] = sm * vx + cm * vy_new
-        out_yaw_rate[i] = r_new
-        out_steer[i] = delta
+        command[i, 0] = cm * vx - sm * vy_new
+        command[i, 1] = sm * vx + cm * vy_new
+        command[i, 2] = r_new
+        steer[i] = delta

@@ -170,20 +170,22 @@ class PhysicsWorld:
         """
         return self._state
 
-    def step(self, velocity: FloatArray, angular_velocity: FloatArray, dt: float,
-             substeps: int) -> None:
-        """Hold car velocities, run ``substeps`` pymunk steps, and read every body back.
+    @property
+    def command(self) -> FloatArray:
+        """The car velocities to hold during the next step, (C, 3): vx, vy, omega (writable).
+
+        Fill it (e.g. straight from the dynamics kernel), then call :meth:`step`.
+        """
+        return self._write_vel[: self.num_cars]
+
+    def step(self, dt: float, substeps: int) -> None:
+        """Hold the car velocities in :attr:`command`, run ``substeps`` pymunk steps, and read
+        every body back into :attr:`state`.
 
         Args:
-            velocity: World-frame car velocities, shape (C, 2), m/s.
-            angular_velocity: Car yaw rates, shape (C,), rad/s.
             dt: Total step length [s], split evenly over the sub-steps.
             substeps: Number of pymunk steps.
         """
-        c = self.num_cars
-        write = self._write_vel
-        write[:c, 0:2] = velocity
-        write[:c, 2] = angular_velocity
         pb.set_space_bodies(self.space, _VELOCITY_FIELDS, self._write_vel_buffer)
         sub_dt = dt / substeps
         space_step = self.space.step

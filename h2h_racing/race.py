@@ -192,42 +192,41 @@ def overtakes_and_defences(distance: FloatArray, prev_gap: FloatArray, eligible:
     gap = np.empty((e, n, n))
     passed = np.zeros((e, n, n), dtype=np.bool_)
     defended = np.zeros((e, n, n), dtype=np.bool_)
-    _pairs_kernel(distance, prev_gap, eligible, speed, pressure, faster, length, dt, gap_limit,
+    pairs_kernel(distance, prev_gap, eligible, speed, pressure, faster, length, dt, gap_limit,
                   time_limit, gap, passed, defended)
     return gap, passed, defended
 
 
-def pairs_kernel(*args):  # pragma: no cover
-    """The compiled kernel behind :func:`overtakes_and_defences` (for the core's hot path).
 
-    Same arguments, plus the outputs ``gap``, ``passed``, ``defended``; returns
-    ``(any passed, any defended)``.
-    """
-    return _pairs_kernel(*args)
 
 
 @njit(cache=True)
-def _pairs_kernel(distance, prev_gap, eligible, speed, pressure, faster, length, dt, gap_limit,
-                  time_limit, gap, passed, defended):  # pragma: no cover
+def pairs_kernel(distance, prev_gap, eligible, speed, pressure, faster, length, dt, gap_limit,
+                   time_limit, gap, passed, defended):  # pragma: no cover
+    """The compiled kernel behind :func:`overtakes_and_defences` (the core's hot path).
+
+    Same arguments, plus the outputs ``gap`` (may be ``prev_gap`` itself: each entry is read
+    before it is written), ``passed`` and ``defended`` (every entry is written); returns
+    ``(any passed, any defended)``.
+    """
     half = 0.5 * length
     any_passed = False
     any_defended = False
     for e in range(distance.shape[0]):
         for i in range(distance.shape[1]):
             for j in range(distance.shape[1]):
+                before = prev_gap[e, i, j]
                 g = distance[e, i] - distance[e, j]
                 gap[e, i, j] = g
-                if i == j:
-                    continue
-                both = eligible[e, i] and eligible[e, j]
-                did_pass = both and prev_gap[e, i, j] < 0.0 < g and abs(g) < half
+                both = i != j and eligible[e, i] and eligible[e, j]
+                did_pass = both and before < 0.0 < g and abs(g) < half
                 passed[e, i, j] = did_pass
                 any_passed = any_passed or did_pass
                 close = both and -gap_limit < g < 0.0
-                if (not close and pressure[e, i, j] >= time_limit and faster[e, i, j]
-                        and not did_pass):
-                    defended[e, i, j] = True
-                    any_defended = True
+                held = (both and not close and pressure[e, i, j] >= time_limit
+                        and faster[e, i, j] and not did_pass)
+                defended[e, i, j] = held
+                any_defended = any_defended or held
                 if close:
                     pressure[e, i, j] += dt
                     faster[e, i, j] = faster[e, i, j] or speed[e, i] > speed[e, j]
