@@ -1,8 +1,9 @@
 """The batched simulation core: E env copies x N cars in arrays.
 
 ``RaceCore`` holds the state of every car of every env copy in arrays with leading axes
-``(E, N)`` and advances them together: numpy dynamics for all cars, one pymunk Space for
-contacts, vectorised race rules, observations and rewards. The PettingZoo env is this core
+``(E, N)`` and advances them together: the single-track dynamics for all cars, one pymunk
+Space for contacts, then race rules, observations and rewards over the same arrays (compiled
+numba loops for the per-car work, numpy for the rare events). The PettingZoo env is this core
 with E = 1; the training VecEnv is the same core with E in the hundreds.
 
 A step is two-phase: commands are applied to every car, physics runs, the state is read
@@ -542,12 +543,6 @@ class RaceCore:
         self.replace_distance = np.where(
             infraction, np.where(back, prev_distance, self.distance), self.replace_distance)
         return infraction.copy()
-
-    def _project_mask(self, racing: BoolArray) -> BoolArray | None:
-        """Project every car's points, or only racing cars' when some cars are parked."""
-        if not self._parked.any():
-            return None
-        return np.broadcast_to(racing[:, :, None], self._points.shape[:3])
 
     def _complete_laps(self, completed: BoolArray, laps: IntArray,
                        step_distance: FloatArray) -> BoolArray:

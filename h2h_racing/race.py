@@ -19,7 +19,7 @@ import numpy.typing as npt
 from numba import njit
 
 from h2h_racing.track import project_kernel
-from h2h_racing.track_lookup import lookup
+from h2h_racing.track_lookup import lookup, wrap_arc
 
 
 FloatArray = npt.NDArray[np.float64]
@@ -30,16 +30,6 @@ limits are decimal seconds that ``dt = 1/15 s`` does not divide exactly in binar
 point (75 * (1/15) may differ from 5.0 in the last bit)."""
 BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.int64]
-
-
-def wrap_arc(delta_s: FloatArray, length: float) -> FloatArray:
-    """Wrap an arc-position difference into [-length/2, length/2).
-
-    >>> float(wrap_arc(np.array(9.5), 10.0))   # 9.5 m forward on a 10 m lap is 0.5 m back
-    -0.5
-    """
-    half = 0.5 * length
-    return np.mod(delta_s + half, length) - half
 
 
 def crossing_time(time: FloatArray | float, dt: float, distance: FloatArray,
@@ -272,7 +262,6 @@ def advance_cars(body_state, env_offset, wheels, racing, done, time, steps, time
         ``(event, out_of_time)``: whether any car went off track, reversed, was immobilised
         or completed a lap; whether any env copy reached ``time_limit`` or ``max_cycles``.
     """
-    half = 0.5 * length
     num_envs, num_cars = s.shape
     num_wheels = wheels.shape[0]
     total = num_envs * num_cars
@@ -335,8 +324,7 @@ def advance_cars(body_state, env_offset, wheels, racing, done, time, steps, time
                 immobile_count[e, i] = 0
                 new_laps[e, i] = laps[e, i]
                 continue
-            ds = s_points[k] - s[e, i]
-            ds = ds - length * math.floor((ds + half) / length)
+            ds = wrap_arc(s_points[k] - s[e, i], length)
             step_distance[e, i] = ds
             distance[e, i] += ds
             s[e, i] = s_points[k]

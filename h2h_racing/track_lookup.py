@@ -82,3 +82,10 @@ def lookup(table: FloatArray, s: float, inv_ds: float, length: float) -> float: 
 def wrap_angle(angle: float) -> float:  # pragma: no cover
     """Wrap an angle into [-pi, pi)."""
     return angle - 2.0 * math.pi * math.floor((angle + math.pi) / (2.0 * math.pi))
+
+
+@njit(cache=True, inline="always")
+def wrap_arc(delta_s: float, length: float) -> float:  # pragma: no cover
+    """Wrap an arc-position difference into [-length/2, length/2) (9.5 m ahead on a 10 m lap
+    is 0.5 m behind)."""
+    return delta_s - length * math.floor((delta_s + 0.5 * length) / length)

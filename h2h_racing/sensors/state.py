@@ -39,7 +39,7 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-from h2h_racing.track_lookup import lookup, wrap_angle
+from h2h_racing.track_lookup import lookup, wrap_angle, wrap_arc
 
 if TYPE_CHECKING:
     from h2h_racing.core import RaceCore
@@ -101,7 +101,6 @@ def _state_kernel(s, d, yaw, velocity, yaw_rate, steer, speed, rank, racing, don
     num_envs, num_cars = s.shape
     num_obstacles = obstacle_s.shape[1]
     inv_v = 1.0 / max_speed
-    half = 0.5 * length
     gaps = np.empty(num_cars)
     ahead = np.empty(max(num_obstacles, 1))
     ahead_distance = np.empty(max(num_obstacles, 1))
@@ -131,8 +130,7 @@ def _state_kernel(s, d, yaw, velocity, yaw_rate, steer, speed, rank, racing, don
             col = 19
             # Opponents: the m_slots nearest by |arc gap| within SENSE_RANGE.
             for j in range(num_cars):
-                gap = s[e, j] - si
-                gap = gap - length * math.floor((gap + half) / length)
+                gap = wrap_arc(s[e, j] - si, length)
                 gaps[j] = abs(gap) if (j != i and not done[e, j]
                                        and abs(gap) <= SENSE_RANGE) else np.inf
             for slot in range(m_slots):
@@ -142,8 +140,7 @@ def _state_kernel(s, d, yaw, velocity, yaw_rate, steer, speed, rank, racing, don
                     for f in range(4):
                         row[base + f] = 0.0
                     continue
-                gap = s[e, best] - si
-                gap = gap - length * math.floor((gap + half) / length)
+                gap = wrap_arc(s[e, best] - si, length)
                 row[base] = 1.0
                 row[base + 1] = _clip(gap / SENSE_RANGE)
                 row[base + 2] = _clip(d[e, best] - di)
