@@ -18,7 +18,7 @@ through ``p`` and ``q`` has curvature ``2 sin(alpha) / l_d``, hence the steering
 ``delta = atan(2 L sin(alpha) / l_d)`` with ``L`` the wheelbase. The car model is close to
 neutral steer (``l_f C_f = l_r C_r``), so the kinematic angle holds up to the grip limit.
 
-Run ``python -m h2h_racing.policies.scripted`` for the lap-time table of every driver on
+Run ``python -m h2h_racing.policies`` for the lap-time table of every driver on
 every catalogue track.
 """
 
@@ -443,11 +443,11 @@ def race_core(track: str | Track, num_cars: int, laps: int = 1, num_envs: int = 
     return core
 
 
-def _main(argv: Sequence[str] | None = None) -> None:
+def lap_time_table(argv: Sequence[str] | None = None) -> None:
     """Print the one-lap time of each driver alone on each catalogue track."""
     from h2h_racing.track_io import list_tracks, load_track
 
-    parser = argparse.ArgumentParser(description=_main.__doc__)
+    parser = argparse.ArgumentParser(description=lap_time_table.__doc__)
     parser.add_argument("--drivers", nargs="+", default=["pure_pursuit", "racing_line", "blocker"])
     parser.add_argument("--tracks", nargs="+", default=None)
     args = parser.parse_args(argv)
@@ -467,6 +467,3 @@ def _main(argv: Sequence[str] | None = None) -> None:
             cells.append(text)
         print(f"| {name} | " + " | ".join(cells) + " |")
 
-
-if __name__ == "__main__":
-    _main()
