@@ -26,7 +26,13 @@ class TestWheel:
             assert f"h2h_racing/catalogue/{track}.json" in names
             assert f"h2h_racing/catalogue/{track}.png" in names
         assert "h2h_racing/policies/scripted.py" in names
-        assert "h2h_racing/env.py" in names
+        assert "h2h_racing/league/vec_env.py" in names
+        # Every subpackage of h2h_racing/ made it (the package list in pyproject is explicit).
+        for init in (REPO / "h2h_racing").rglob("__init__.py"):
+            module = init.relative_to(REPO).as_posix()
+            assert module in names, f"{module} is missing from the wheel: list its package"
+        for source in (REPO / "h2h_racing").rglob("*.py"):
+            assert source.relative_to(REPO).as_posix() in names
 
 
 class TestLayers:

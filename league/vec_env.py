@@ -1,0 +1,219 @@
+"""rsl-rl ``VecEnv`` over the batched race core (not over K Python env objects).
+
+Rows are learner-controlled cars: ``learners`` cars in each of ``num_envs`` env copies of one
+``RaceCore`` (``num_envs * learners`` rows, parameter sharing between a copy's learner cars).
+The other cars of a copy are opponents, driven inside :meth:`RacingVecEnv.step` by a scripted
+driver or a frozen policy, in one batched call over every copy. Every car's grid slot is drawn
+at each reset (seat fairness).
+
+A copy's episode ends as soon as one of its learner cars is done (finished its laps, retired by
+an infraction under ``training`` rules, or out of time), and the copy is reset inside ``step``:
+that learner's row reports ``done`` (a termination, or a time-out for a time limit), the other
+learners of the copy report ``done`` with ``time_outs`` set (their episode was cut short, so PPO
+bootstraps their value), and the observations returned are the first of the next episode.
+rsl-rl has no row mask (every row goes into the loss), so a copy never keeps running with a
+finished learner in it.
+
+Observation groups (a ``TensorDict`` with batch size ``num_envs * learners``):
+
+- ``policy``: the state vector of the learner car, (B, F) float32;
+- ``critic``: privileged state for an asymmetric critic, (B, F + 4 (N - 1)): the state vector and,
+  for every other car in car order, its arc gap (wrapped, / 5 m), lateral offset, forward speed
+  (/ 4 m/s) and heading error, whatever its distance;
+- ``camera`` (with ``observations="camera"``): the learner's camera as (B, C, H, W) float32 in
+  [0, 1], ready for rsl-rl's ``CNNModel``.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any, Callable, Literal
+
+import numpy as np
+import numpy.typing as npt
+
+os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl imports GitPython
+
+import torch  # noqa: E402
+from rsl_rl.env import VecEnv  # noqa: E402
+from tensordict import TensorDict  # noqa: E402
+
+from h2h_racing import rewards  # noqa: E402
+from h2h_racing.config import EnvConfig  # noqa: E402
+from h2h_racing.core import RaceCore  # noqa: E402
+from h2h_racing.race import TIME_EPS  # noqa: E402
+from h2h_racing.sensors.camera import CameraSensor  # noqa: E402
+from h2h_racing.sensors.state import state_observation  # noqa: E402
+from h2h_racing.track import Track  # noqa: E402
+from h2h_racing.track_io import load_track  # noqa: E402
+
+Opponent = Callable[[RaceCore, int], npt.NDArray[np.floating]]
+"""Drives car ``car`` of every copy: ``opponent(core, car) -> (E, 2)`` actions in [-1, 1]."""
+
+
+class RacingVecEnv(VecEnv):
+    """Learner cars of a batched race core as rsl-rl rows.
+
+    Args:
+        config: The env configuration (track, cars, rules, rewards, sensors' settings).
+        num_envs: Env copies E.
+        learners: Learner cars per copy L (cars ``0 .. L-1``); None means every car (self-play
+            with parameter sharing).
+        opponent: Driver of the other cars: a ``h2h_racing.policies`` driver name, an object
+            with ``reset(core)`` and ``act(core, car)``, or None when every car is a learner.
+        observations: ``"state"`` or ``"camera"`` (adds the ``camera`` group).
+        seed: Seed of the core's random generator.
+        device: Torch device of the returned tensors.
+        track: A ``Track`` to use instead of loading ``config.track``.
+    """
+
+    def __init__(self, config: EnvConfig, num_envs: int, learners: int | None = None,
+                 opponent: str | Any | None = None,
+                 observations: Literal["state", "camera"] = "state", seed: int = 0,
+                 device: str = "cpu", track: Track | None = None) -> None:
+        n = config.num_cars
+        learners = n if learners is None else learners
+        if not isinstance(learners, int) or not 1 <= learners <= n:
+            raise ValueError(f"learners must be an int in [1, num_cars={n}], got {learners!r}")
+        if learners < n and opponent is None:
+            raise ValueError(f"{n - learners} car(s) per copy are not learners: give an opponent "
+                             "(a driver name such as 'racing_line', or a driver object)")
+        if observations not in ("state", "camera"):
+            raise ValueError(f"observations must be 'state' or 'camera', got {observations!r}")
+        if config.action_type != "continuous":
+            raise ValueError("RacingVecEnv needs action_type='continuous' (rsl-rl's Gaussian "
+                             f"policies), got {config.action_type!r}")
+        self.config = config
+        self.cfg = config.to_dict()
+        self.track = track if track is not None else load_track(config.track)
+        self.core = RaceCore(config, self.track, num_envs=num_envs)
+        self.learners = learners
+        self.num_envs = num_envs * learners
+        self.num_actions = 2
+        self.device = device
+        self.observation_kind = observations
+        self.max_episode_length = min(
+            config.max_cycles, int(np.ceil(self.core.rules.time_limit / config.step_dt - TIME_EPS)))
+        self.episode_length_buf = torch.zeros(self.num_envs, dtype=torch.long, device=device)
+        self._weights = rewards.weights_of(config.reward)
+        self._camera = (CameraSensor(config.camera, self.track, config.car,
+                                     (config.obstacle_length, config.obstacle_width))
+                        if observations == "camera" else None)
+        if isinstance(opponent, str):
+            from h2h_racing.policies import make_driver
+
+            opponent = make_driver(opponent)
+        self.opponent = opponent
+        self._speed_mid = 0.5 * (config.max_speed + config.min_speed)
+        self._speed_half = 0.5 * (config.max_speed - config.min_speed)
+        self.core.reset(seed=seed)
+        if self.opponent is not None:
+            self.opponent.reset(self.core)
+        if self._camera is not None:
+            self._camera.reset(self.core)
+        self._obs = self._observe()
+
+    # ---------------------------------------------------------------- rsl-rl API
+    def get_observations(self) -> TensorDict:
+        """Return the current observation groups."""
+        return self._obs
+
+    def step(self, actions: torch.Tensor) -> tuple[TensorDict, torch.Tensor, torch.Tensor,
+                                                   dict[str, Any]]:
+        """Apply the learners' actions, drive the opponents, step every copy, auto-reset.
+
+        Args:
+            actions: ``(num_envs * learners, 2)`` = (steer, speed) in [-1, 1] (clipped).
+
+        Returns:
+            ``(observations, rewards (B,), dones (B,), extras)`` with ``extras["time_outs"]``
+            (B,) and ``extras["log"]`` (episode statistics of the copies that ended).
+        """
+        core, cfg = self.core, self.config
+        e, n, learners = core.num_envs, core.num_cars, self.learners
+        values = actions.detach().to("cpu", torch.float64).numpy().reshape(e, learners, 2)
+        if not np.isfinite(values).all():
+            raise ValueError("actions contain NaN or inf")
+        commands = np.empty((e, n, 2))
+        commands[:, :learners] = np.clip(values, -1.0, 1.0)
+        for car in range(learners, n):
+            commands[:, car] = np.clip(self.opponent.act(core, car), -1.0, 1.0)
+        steer = commands[..., 0] * cfg.car.max_steer
+        speed = self._speed_mid + commands[..., 1] * self._speed_half
+        racing = core.racing
+        events = core.step(steer, speed)
+        terms, reward = rewards.reward_terms(self._weights, events, core.speed, racing)
+
+        learner_done = core.done[:, :learners]
+        ended = learner_done.any(axis=1) | core.done.all(axis=1)
+        terminated = events.terminated[:, :learners]
+        dones = np.broadcast_to(ended[:, None], (e, learners))
+        time_outs = dones & ~terminated
+        log = self._episode_log(ended, terms) if ended.any() else {}
+        if ended.any():
+            core.reset_envs(ended)
+            if self._camera is not None:
+                self._camera.reset(core)
+        self._obs = self._observe()
+        steps = np.repeat(core.steps, learners)
+        self.episode_length_buf.copy_(torch.from_numpy(steps))
+        extras = {"time_outs": self._tensor(time_outs.reshape(-1), torch.float32),
+                  "log": log}
+        return (self._obs, self._tensor(reward[:, :learners].reshape(-1), torch.float32),
+                self._tensor(dones.reshape(-1), torch.long), extras)
+
+    # ---------------------------------------------------------------- helpers
+    def _tensor(self, array: npt.NDArray[Any], dtype: torch.dtype) -> torch.Tensor:
+        return torch.tensor(np.asarray(array), dtype=dtype, device=self.device)
+
+    def _observe(self) -> TensorDict:
+        core, learners = self.core, self.learners
+        e, n = core.num_envs, core.num_cars
+        state = state_observation(core)
+        policy = state[:, :learners].reshape(e * learners, -1)
+        groups = {"policy": self._tensor(policy, torch.float32),
+                  "critic": self._tensor(np.concatenate(
+                      [policy, self._privileged().reshape(e * learners, -1)], axis=1),
+                      torch.float32)}
+        if self._camera is not None:
+            frames = self._camera.observe(core)[:, :learners]
+            frames = frames.reshape(e * learners, *frames.shape[2:]).transpose(0, 3, 1, 2)
+            groups["camera"] = self._tensor(frames, torch.float32).div_(255.0)
+        return TensorDict(groups, batch_size=[e * learners], device=self.device)
+
+    def _privileged(self) -> npt.NDArray[np.float32]:
+        """Every other car's gap, offset, speed and heading error, (E, L, 4 (N - 1))."""
+        core, learners = self.core, self.learners
+        e, n = core.num_envs, core.num_cars
+        length = self.track.length
+        gap = core.s[:, None, :] - core.s[:, :learners, None]
+        gap = gap - length * np.floor(gap / length + 0.5)
+        error = core.yaw - self.track.heading_at(core.s)
+        error = np.arctan2(np.sin(error), np.cos(error))
+        per_car = np.stack([np.clip(gap / 5.0, -5, 5),
+                            np.broadcast_to(core.d[:, None, :], gap.shape),
+                            np.broadcast_to(core.speed[:, None, :] / 4.0, gap.shape),
+                            np.broadcast_to(error[:, None, :], gap.shape)], axis=-1)
+        others = ~np.eye(learners, n, dtype=bool)
+        return per_car[:, others].reshape(e, learners, -1) if n > 1 else np.zeros((e, learners, 0))
+
+    def _episode_log(self, ended: npt.NDArray[np.bool_],
+                     terms: npt.NDArray[np.float64]) -> dict[str, float]:
+        """Statistics of the learner cars of the copies whose episode ended this step."""
+        core, learners = self.core, self.learners
+        laps = core.laps[ended, :learners]
+        lap_times = [t for env in np.flatnonzero(ended) for car in range(learners)
+                     for t in core.lap_times[env][car]]
+        log = {
+            "lap_completion": float((laps >= 1).mean()),
+            "progress": float(core.episode_progress[ended, :learners].mean()),
+            "off_tracks": float(core.off_tracks[ended, :learners].mean()),
+            "crashes": float(core.crashes[ended, :learners].mean()),
+            "collisions": float(core.collisions[ended, :learners].mean()),
+            "overtakes": float(core.overtakes[ended, :learners].mean()),
+            **{f"reward/{name}": float(terms[k, :, :learners].mean())
+               for k, name in enumerate(rewards.TERMS)},
+        }
+        if lap_times:  # rsl-rl averages what it is given; no NaN for "no lap yet"
+            log["lap_time"] = float(np.mean(lap_times))
+        return log
