@@ -168,7 +168,7 @@ class RacingVecEnv(VecEnv):
 
     def _observe(self) -> TensorDict:
         core, learners = self.core, self.learners
-        e, n = core.num_envs, core.num_cars
+        e = core.num_envs
         state = state_observation(core)
         policy = state[:, :learners].reshape(e * learners, -1)
         groups = {"policy": self._tensor(policy, torch.float32),
