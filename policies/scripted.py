@@ -377,14 +377,20 @@ def make_driver(name: str, **kwargs: Any) -> Driver:
 
     Args:
         name: One of ``DRIVERS`` (``"pure_pursuit"``, ``"racing_line"``, ``"blocker"``,
-            ``"random"``; ``"random"`` needs ``rng=np.random.default_rng(seed)``).
+            ``"random"``; ``"random"`` needs ``rng=np.random.default_rng(seed)``), or the path
+            of a trained ``policy.pt`` (see ``h2h_racing.policies.trained``).
         **kwargs: Constructor arguments of the driver.
 
     Raises:
         ValueError: If the name is unknown.
     """
+    if name.endswith(".pt"):
+        from h2h_racing.policies.trained import TrainedPolicy
+
+        return TrainedPolicy(name, **kwargs)
     if name not in DRIVERS:
-        raise ValueError(f"unknown driver {name!r}; known drivers are {sorted(DRIVERS)}")
+        raise ValueError(f"unknown driver {name!r}; known drivers are {sorted(DRIVERS)} or "
+                         "the path of a trained policy.pt")
     return DRIVERS[name](**kwargs)
 
 

@@ -1,0 +1,205 @@
+"""Train racing policies with rsl-rl PPO on the batched core, and save them as policy files.
+
+``TrainConfig`` (frozen) builds a fresh rsl-rl config dict for every runner (rsl-rl mutates the
+dict it is given). ``train`` runs PPO with rsl-rl's tensorboard logs and checkpoints in the
+output folder, then writes ``policy.pt``: a self-contained policy file that loads with
+``torch.load(weights_only=True)`` and carries the env and observation config it was trained
+with (see ``h2h_racing.policies.trained``).
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl imports GitPython
+
+import torch  # noqa: E402
+
+from h2h_racing.config import EnvConfig, RaceRules, RewardConfig  # noqa: E402
+from h2h_racing.league.vec_env import RacingVecEnv  # noqa: E402
+
+POLICY_FORMAT = "h2h-racing-policy/1"
+"""Value of the ``format`` key of a policy file."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class PPOConfig:
+    """PPO hyper-parameters (rsl-rl's ``algorithm`` section)."""
+
+    learning_rate: float = 1e-3
+    """Adam learning rate (adapted by the KL schedule)."""
+    num_learning_epochs: int = 4
+    """Passes over each rollout."""
+    num_mini_batches: int = 4
+    """Mini-batches per pass."""
+    clip_param: float = 0.2
+    """PPO ratio clip."""
+    gamma: float = 0.995
+    """Discount per step (1/15 s): a horizon of about 13 s."""
+    lam: float = 0.95
+    """GAE lambda."""
+    entropy_coef: float = 0.003
+    """Entropy bonus."""
+    desired_kl: float = 0.01
+    """Target KL of the adaptive learning-rate schedule."""
+    max_grad_norm: float = 1.0
+    """Gradient clipping."""
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if not isinstance(value, (int, float)) or value <= 0:
+                raise ValueError(f"PPOConfig.{f.name} must be a number > 0, got {value!r}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class TrainConfig:
+    """What to train, on what, against whom."""
+
+    track: str = "speedway"
+    """Catalogue name, track file or ``random:<seed>``."""
+    observations: Literal["state", "camera"] = "state"
+    """Actor input: the state vector, or the camera plus the state vector."""
+    num_cars: int = 1
+    """Cars per env copy."""
+    opponent: str | None = None
+    """Driver of the cars that are not learners (a ``h2h_racing.policies`` driver name)."""
+    learners: int | None = None
+    """Learner cars per copy; None means every car (self-play with parameter sharing)."""
+    num_envs: int = 256
+    """Env copies."""
+    num_steps_per_env: int = 32
+    """Rollout length per iteration [steps]."""
+    hidden_dims: tuple[int, ...] = (128, 128)
+    """Hidden layer sizes of the actor and critic MLPs."""
+    init_std: float = 0.5
+    """Initial standard deviation of the Gaussian policy (actions in [-1, 1])."""
+    reward: RewardConfig = field(default_factory=RewardConfig)
+    """Reward weights."""
+    camera_size: tuple[int, int] = (64, 48)
+    """(width, height) of the camera image for camera policies [px]."""
+    seed: int = 0
+    """Seeds torch and the env."""
+    ppo: PPOConfig = field(default_factory=PPOConfig)
+    """PPO hyper-parameters."""
+
+    def __post_init__(self) -> None:
+        if self.observations not in ("state", "camera"):
+            raise ValueError(f"TrainConfig.observations must be 'state' or 'camera', got "
+                             f"{self.observations!r}")
+        if self.num_envs < 1 or self.num_steps_per_env < 1:
+            raise ValueError("TrainConfig.num_envs and num_steps_per_env must be >= 1")
+
+    def env_config(self) -> EnvConfig:
+        """The env the learners race in: DeepRacer's training rules (an infraction ends the
+        car's episode), one lap per episode."""
+        race_type = "time_trial" if self.num_cars == 1 else "head_to_head"
+        camera = dataclasses.replace(EnvConfig().camera, width=self.camera_size[0],
+                                     height=self.camera_size[1])
+        return EnvConfig(track=self.track, num_cars=self.num_cars, race_type=race_type,
+                         rules=RaceRules.preset(race_type, "training"), reward=self.reward,
+                         camera=camera)
+
+    def rsl_rl_dict(self) -> dict[str, Any]:
+        """Return a fresh rsl-rl ``OnPolicyRunner`` config (rsl-rl mutates what it is given)."""
+        camera = self.observations == "camera"
+        actor = {"class_name": "CNNModel" if camera else "MLPModel",
+                 "hidden_dims": list(self.hidden_dims), "obs_normalization": True,
+                 "distribution_cfg": {"class_name": "GaussianDistribution",
+                                      "init_std": self.init_std}}
+        critic = {"class_name": actor["class_name"], "hidden_dims": list(self.hidden_dims),
+                  "obs_normalization": True}
+        if camera:
+            cnn = {"output_channels": [16, 32, 32], "kernel_size": [5, 3, 3], "stride": [2, 2, 2],
+                   "padding": "zeros", "global_pool": "avg"}
+            actor["cnn_cfg"] = copy.deepcopy(cnn)
+            critic["cnn_cfg"] = copy.deepcopy(cnn)
+        return {
+            "num_steps_per_env": self.num_steps_per_env,
+            "save_interval": 50,
+            "obs_groups": {"actor": ["policy", "camera"] if camera else ["policy"],
+                           "critic": ["critic", "camera"] if camera else ["critic"]},
+            "algorithm": {"class_name": "PPO", "schedule": "adaptive",
+                          **dataclasses.asdict(self.ppo)},
+            "actor": actor,
+            "critic": critic,
+        }
+
+    def make_env(self, device: str = "cpu") -> RacingVecEnv:
+        """Build the VecEnv for this config."""
+        return RacingVecEnv(self.env_config(), num_envs=self.num_envs, learners=self.learners,
+                            opponent=self.opponent, observations=self.observations,
+                            seed=self.seed, device=device)
+
+
+def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
+          minutes: float | None = None) -> Any:
+    """Train with PPO; return the rsl-rl runner.
+
+    Args:
+        config: What to train.
+        iterations: PPO iterations (each ``num_envs * num_steps_per_env`` samples).
+        out: Folder for rsl-rl's logs and checkpoints and the final ``policy.pt``; None keeps
+            nothing on disk.
+        minutes: Stop after the first iteration that ends past this wall-clock budget.
+    """
+    from rsl_rl.runners import OnPolicyRunner
+
+    torch.manual_seed(config.seed)
+    env = config.make_env()
+    log_dir = None if out is None else str(Path(out))
+    runner = OnPolicyRunner(env, config.rsl_rl_dict(), log_dir=log_dir, device="cpu")
+    start = time.perf_counter()
+    done = 0
+    chunk = iterations if minutes is None else min(iterations, 10)
+    while done < iterations:
+        step = min(chunk, iterations - done)
+        runner.learn(step)
+        # rsl-rl's learn() re-runs the last iteration index on the next call (its G3 gotcha).
+        runner.current_learning_iteration += 1
+        done += step
+        if minutes is not None and time.perf_counter() - start > 60.0 * minutes:
+            break
+    if out is not None:
+        save_policy(runner, config, Path(out) / "policy.pt",
+                    training={"iterations": done, "seconds": time.perf_counter() - start})
+    return runner
+
+
+def save_policy(runner: Any, config: TrainConfig, path: str | Path,
+                training: dict[str, float] | None = None) -> Path:
+    """Write the actor of ``runner`` and the configs it was trained with to ``path``.
+
+    The file holds only tensors and plain Python values, so it loads with
+    ``torch.load(path, weights_only=True)``.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    train_dict = config.rsl_rl_dict()
+    payload = {
+        "format": POLICY_FORMAT,
+        "actor_state_dict": runner.alg.actor.state_dict(),
+        "actor_cfg": train_dict["actor"],
+        "obs_groups": train_dict["obs_groups"]["actor"],
+        "observations": config.observations,
+        "env_config": _plain(config.env_config().to_dict()),
+        "train_config": _plain(dataclasses.asdict(config)),
+        "training": dict(training or {}),
+    }
+    torch.save(payload, path)
+    return path
+
+
+def _plain(value: Any) -> Any:
+    """Tuples to lists, recursively, so that the dict is plain JSON-like data."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value

@@ -1,0 +1,114 @@
+"""Trained policies as drivers: load a ``policy.pt`` written by ``h2h_racing.league.train``.
+
+A policy file holds the actor's weights and the env and observation config it was trained
+with. It loads with ``torch.load(weights_only=True)`` (no pickled code runs). The driver checks
+that the env it drives gives the same observation layout as training did, and raises a clear
+``ValueError`` when it does not.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import numpy.typing as npt
+
+if TYPE_CHECKING:
+    from h2h_racing.core import RaceCore
+
+POLICY_FORMAT = "h2h-racing-policy/1"
+"""Value of the ``format`` key of a policy file (as written by ``league.train.save_policy``)."""
+_OBSERVATION_KEYS = ("opponent_slots", "obstacle_slots")
+_CAMERA_KEYS = ("width", "height", "stereo", "frame_stack", "height_m", "forward_m", "pitch_deg",
+                "hfov_deg")
+
+
+class TrainedPolicy:
+    """A driver that acts with a trained actor (deterministically: the Gaussian's mean).
+
+    Args:
+        path: A ``policy.pt`` file.
+        name: Driver name shown in results (default: the file's folder name).
+    """
+
+    def __init__(self, path: str | Path, name: str | None = None) -> None:
+        os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
+        import torch
+
+        self.path = Path(path)
+        if not self.path.is_file():
+            raise FileNotFoundError(f"policy file not found: {self.path.resolve()}")
+        payload = torch.load(self.path, weights_only=True, map_location="cpu")
+        if not isinstance(payload, dict) or payload.get("format") != POLICY_FORMAT:
+            raise ValueError(f"{self.path}: not an h2h-racing policy file (expected format "
+                             f"{POLICY_FORMAT!r}, got {payload.get('format') if isinstance(payload, dict) else type(payload).__name__!r})")
+        self.payload = payload
+        self.name = name or self.path.parent.name or self.path.stem
+        self.observations = payload["observations"]
+        self.env_config: dict[str, Any] = payload["env_config"]
+        self._actor: Any = None
+        self._camera: Any = None
+
+    def reset(self, core: RaceCore) -> None:
+        """Check that ``core`` gives the observations this policy was trained on."""
+        cfg = core.config
+        trained = self.env_config
+        for key in _OBSERVATION_KEYS:
+            if getattr(cfg, key) != trained[key]:
+                raise ValueError(
+                    f"{self.path}: trained with {key}={trained[key]}, but the env has "
+                    f"{key}={getattr(cfg, key)}; build the env with {key}={trained[key]}")
+        if self.observations == "camera":
+            camera = cfg.camera.to_dict()
+            for key in _CAMERA_KEYS:
+                if camera[key] != trained["camera"][key]:
+                    raise ValueError(
+                        f"{self.path}: trained with camera {key}={trained['camera'][key]}, but "
+                        f"the env's camera has {key}={camera[key]}")
+            from h2h_racing.config import CameraConfig
+            from h2h_racing.sensors.camera import CameraSensor
+
+            self._camera = CameraSensor(CameraConfig(**trained["camera"]), core.track, cfg.car,
+                                        (cfg.obstacle_length, cfg.obstacle_width))
+        if self._actor is None:
+            self._actor = self._build_actor(core)
+
+    def _build_actor(self, core: RaceCore) -> Any:
+        import torch
+        from rsl_rl.models import CNNModel, MLPModel
+        from tensordict import TensorDict
+
+        actor_cfg = dict(self.payload["actor_cfg"])
+        model_class = {"MLPModel": MLPModel, "CNNModel": CNNModel}[actor_cfg.pop("class_name")]
+        example = TensorDict({key: torch.as_tensor(value[:1])
+                              for key, value in self._observe(core, 0).items()}, batch_size=[1])
+        model = model_class(example, {"actor": list(self.payload["obs_groups"])}, "actor", 2,
+                            **actor_cfg)
+        model.load_state_dict(self.payload["actor_state_dict"])
+        model.eval()
+        return model
+
+    def _observe(self, core: RaceCore, car: int) -> dict[str, npt.NDArray[np.float32]]:
+        from h2h_racing.sensors.state import state_observation
+
+        groups = {"policy": np.ascontiguousarray(state_observation(core)[:, car])}
+        if self._camera is not None:
+            frames = self._camera.observe(core)[:, car]
+            groups["camera"] = (frames.transpose(0, 3, 1, 2).astype(np.float32) / 255.0)
+        return groups
+
+    def act(self, core: RaceCore, car: int) -> npt.NDArray[np.float32]:
+        """Return the actions of car ``car`` in every env copy, (E, 2) in [-1, 1]."""
+        import torch
+        from tensordict import TensorDict
+
+        if self._actor is None:
+            self.reset(core)
+        obs = self._observe(core, car)
+        batch = TensorDict({k: torch.from_numpy(v) for k, v in obs.items()},
+                           batch_size=[core.num_envs])
+        with torch.inference_mode():
+            action = self._actor(batch)
+        return np.clip(action.numpy(), -1.0, 1.0).astype(np.float32)

@@ -1,0 +1,88 @@
+"""Training runs end in policy files that load safely and drive like the trained actor."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+from tensordict import TensorDict
+
+import h2h_racing
+from h2h_racing.league.train import TrainConfig, train
+from h2h_racing.policies import make_driver
+from h2h_racing.policies.trained import TrainedPolicy
+from h2h_racing.sensors.state import state_observation
+
+SMALL = TrainConfig(track="oval", num_envs=8, num_steps_per_env=8, hidden_dims=(16, 16))
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, object]:
+    out = tmp_path_factory.mktemp("run")
+    runner = train(SMALL, iterations=2, out=out)
+    return out / "policy.pt", runner
+
+
+class TestPolicyFile:
+    """policy.pt loads with weights_only=True and carries its configs."""
+
+    def test_loads_with_weights_only(self, trained: tuple[Path, object]) -> None:
+        payload = torch.load(trained[0], weights_only=True)
+        assert payload["format"] == "h2h-racing-policy/1"
+        assert payload["env_config"]["track"] == "oval"
+        assert payload["training"]["iterations"] == 2
+
+    def test_reloaded_policy_acts_exactly_like_the_trained_actor(
+            self, trained: tuple[Path, object]) -> None:
+        path, runner = trained
+        env = h2h_racing.parallel_env(track="oval", num_cars=1, race_type="time_trial")
+        env.reset(seed=4)
+        for _ in range(10):
+            env.step({"car_0": np.array([0.1, 0.2], np.float32)})
+        policy = make_driver(str(path))
+        policy.reset(env.core)
+        obs = torch.from_numpy(np.ascontiguousarray(state_observation(env.core)[:, 0]))
+        actor = runner.alg.actor
+        actor.eval()
+        with torch.inference_mode():
+            expected = actor(TensorDict({"policy": obs}, batch_size=[1])).numpy()
+        assert np.array_equal(policy.act(env.core, 0), np.clip(expected, -1, 1))
+
+    def test_observation_mismatch_is_a_clear_error(self, trained: tuple[Path, object]) -> None:
+        env = h2h_racing.parallel_env(track="oval", num_cars=2, opponent_slots=3)
+        env.reset(seed=0)
+        with pytest.raises(ValueError, match="opponent_slots=2"):
+            TrainedPolicy(trained[0]).reset(env.core)
+
+    def test_not_a_policy_file(self, tmp_path: Path) -> None:
+        bad = tmp_path / "x.pt"
+        torch.save({"hello": 1}, bad)
+        with pytest.raises(ValueError, match="not an h2h-racing policy"):
+            TrainedPolicy(bad)
+
+    def test_trained_policy_races_in_the_env(self, trained: tuple[Path, object]) -> None:
+        from h2h_racing.match import run_race
+
+        result = run_race("oval", [str(trained[0]), "pure_pursuit"], laps=1, seed=0,
+                          max_cycles=150)
+        assert {row["agent"] for row in result.rows} == {"car_0", "car_1"}
+
+
+class TestConfig:
+    """TrainConfig gives a fresh rsl-rl dict each time (rsl-rl mutates the one it gets)."""
+
+    def test_fresh_dict_every_call(self) -> None:
+        a, b = SMALL.rsl_rl_dict(), SMALL.rsl_rl_dict()
+        assert a == b and a is not b and a["actor"] is not b["actor"]
+
+    def test_camera_config_uses_cnn(self) -> None:
+        cfg = dataclasses.replace(SMALL, observations="camera").rsl_rl_dict()
+        assert cfg["actor"]["class_name"] == "CNNModel"
+        assert cfg["obs_groups"]["actor"] == ["policy", "camera"]
+
+    def test_bad_values_rejected(self) -> None:
+        with pytest.raises(ValueError, match="observations"):
+            TrainConfig(observations="lidar")
