@@ -266,7 +266,8 @@ class RaceCore:
         """Replace the core's random generator (the only source of randomness)."""
         self.rng = np.random.default_rng(seed)
 
-    def reset(self, seed: int | None = None, slots: IntArray | None = None) -> None:
+    def reset(self, seed: int | None = None, slots: IntArray | None = None,
+              start: FloatArray | None = None) -> None:
         """Reset every env copy and build a new pymunk Space.
 
         Args:
@@ -274,6 +275,10 @@ class RaceCore:
                 later unseeded reset continues the seeded sequence deterministically.
             slots: Grid slot of each car, shape (N,) or (E, N); None draws them as
                 ``config.grid`` says.
+            start: Arc position of grid slot 0 in each copy, shape (E,) [m]; None puts it on
+                the start line. Under ``training`` rules laps then count from each car's start
+                (DeepRacer's training starts round the lap); race distances stay measured
+                from the start line.
         """
         if seed is not None:
             self.seed(seed)
@@ -285,23 +290,27 @@ class RaceCore:
             obstacle_size=(self.config.obstacle_length, self.config.obstacle_width),
             friction=car.body_friction, elasticity=car.body_elasticity)
         self._allocate()
-        self._spawn(np.ones(self.num_envs, dtype=bool), slots)
+        self._spawn(np.ones(self.num_envs, dtype=bool), slots, start)
 
-    def reset_envs(self, mask: BoolArray, slots: IntArray | None = None) -> None:
+    def reset_envs(self, mask: BoolArray, slots: IntArray | None = None,
+                   start: FloatArray | None = None) -> None:
         """Reset the env copies where ``mask`` is True, keeping the others running.
 
         Args:
             mask: Which copies to reset, shape (E,).
             slots: Grid slots, shape (N,) or (sum(mask), N); None draws them.
+            start: Arc position of slot 0 in each reset copy, shape (sum(mask),) [m] (see
+                ``reset``).
         """
         if self.world is None:
             raise RuntimeError("call reset() before reset_envs()")
         mask = np.asarray(mask, dtype=bool)
         if not mask.any():
             return
-        self._spawn(mask, slots)
+        self._spawn(mask, slots, start)
 
-    def _spawn(self, mask: BoolArray, slots: IntArray | None) -> None:
+    def _spawn(self, mask: BoolArray, slots: IntArray | None,
+               start: FloatArray | None = None) -> None:
         cfg, track = self.config, self.track
         m = int(mask.sum())
         n = self.num_cars
@@ -313,6 +322,8 @@ class RaceCore:
                 raise ValueError(f"slots must be a permutation of 0..{n - 1}, got {slot[0]}")
         offset, lane = spawn.grid_slots(n, cfg.grid_spacing, self.inner_sign)
         car_offset = offset[slot]
+        if start is not None:
+            car_offset = car_offset + np.asarray(start, dtype=np.float64).reshape(m, 1)
         car_lane = lane[slot]
         s = np.mod(car_offset, track.length)
         d = spawn.lane_offset(track, s, car_lane)

@@ -86,6 +86,9 @@ class TrainConfig:
     """(width, height) of the camera image for camera policies [px]."""
     seed: int = 0
     """Seeds torch and the env."""
+    torch_threads: int = 1
+    """Torch intra-op threads. One is fastest for these small networks on a small machine:
+    with more threads than free cores, OpenMP's spinning threads slow the update ~10x."""
     ppo: PPOConfig = field(default_factory=PPOConfig)
     """PPO hyper-parameters."""
 
@@ -152,6 +155,7 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
     from rsl_rl.runners import OnPolicyRunner
 
     torch.manual_seed(config.seed)
+    torch.set_num_threads(config.torch_threads)
     env = config.make_env()
     log_dir = None if out is None else str(Path(out))
     runner = OnPolicyRunner(env, config.rsl_rl_dict(), log_dir=log_dir, device="cpu")
