@@ -1,6 +1,7 @@
 """The ``h2h-racing`` command line.
 
     h2h-racing race [--track speedway] [--drivers racing_line,pure_pursuit] [...]
+                    [--save race.rrd] [--spawn] [--serve [--serve-seconds N]]
     h2h-racing camera [--track speedway] [--car 1] [--steps 20] [--out camera.png]
     h2h-racing tracks list
     h2h-racing tracks show NAME [--out NAME.png]
@@ -11,8 +12,8 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 
 def _scale(text: str) -> float | tuple[float, float]:
@@ -72,12 +73,28 @@ def _cmd_race(args: argparse.Namespace) -> int:
 
     drivers = [d.strip() for d in args.drivers.split(",") if d.strip()]
     tracks = list_tracks() if args.track == "all" else [args.track]
-    if args.video and len(tracks) > 1:
-        raise ValueError("--video records one race: give a single --track, not 'all'")
+    for flag, value in (("--video", args.video), ("--save", args.save),
+                        ("--spawn", args.spawn), ("--serve", args.serve)):
+        if value and len(tracks) > 1:
+            raise ValueError(f"{flag} records one race: give a single --track, not 'all'")
+    if args.serve_seconds is not None and not args.serve:
+        raise ValueError("--serve-seconds needs --serve")
+    if args.serve_seconds is not None and args.serve_seconds < 0:
+        raise ValueError(f"--serve-seconds must be >= 0, got {args.serve_seconds}")
+    progress = sys.stderr.isatty() if args.progress is None else args.progress
     for i, track in enumerate(tracks):
         result = run_race(track=track, drivers=drivers, race_type=args.race_type,
-                          laps=args.laps, seed=args.seed, video=args.video)
-        print(("\n" if i else "") + result.table)
+                          laps=args.laps, seed=args.seed, video=args.video, save=args.save,
+                          spawn=args.spawn, serve=args.serve, web_port=args.web_port,
+                          grpc_port=args.grpc_port, progress=progress)
+        print(("\n" if i else "") + result.table, flush=True)
+        if args.save:
+            print(f"recording -> {args.save} (open it with: rerun {args.save})", flush=True)
+        if result.viewer is not None:
+            until = ("Ctrl-C to stop" if args.serve_seconds is None
+                     else f"for {args.serve_seconds:g} s")
+            print(f"web viewer: {result.viewer.viewer_url} ({until})", flush=True)
+            result.viewer.serve_until(args.serve_seconds)
     return 0
 
 
@@ -120,6 +137,18 @@ def build_parser() -> argparse.ArgumentParser:
     race.add_argument("--laps", type=int, default=None, help="lap target (default: preset)")
     race.add_argument("--seed", type=int, default=0)
     race.add_argument("--video", default=None, help="write a top-down MP4 of the race here")
+    race.add_argument("--save", default=None, metavar="RACE.rrd",
+                      help="write a rerun recording of the race (needs h2h-racing[viz])")
+    race.add_argument("--spawn", action="store_true",
+                      help="watch the race in the native rerun viewer (needs a display)")
+    race.add_argument("--serve", action="store_true",
+                      help="serve the race in the rerun web viewer on 127.0.0.1 until Ctrl-C")
+    race.add_argument("--serve-seconds", type=float, default=None, metavar="N",
+                      help="with --serve: stop serving after N seconds instead of at Ctrl-C")
+    race.add_argument("--web-port", type=int, default=9090, help="web viewer port (--serve)")
+    race.add_argument("--grpc-port", type=int, default=9876, help="rerun server port (--serve)")
+    race.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                      help="show a progress bar on stderr (default: when stderr is a terminal)")
     race.set_defaults(func=_cmd_race)
 
     camera = sub.add_parser("camera", help="save what a car's camera sees as a PNG")
@@ -159,7 +188,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args))
-    except (ValueError, FileNotFoundError) as exc:
+    except (ValueError, FileNotFoundError, ImportError) as exc:
         print(f"h2h-racing: error: {exc}", file=sys.stderr)
         return 2
 

@@ -7,9 +7,12 @@ car has finished or the time limit ends the race.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+import math
+import sys
+import time
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
 from h2h_racing.config import RaceRules
 from h2h_racing.env import RacingEnv
@@ -28,6 +31,9 @@ class RaceResult:
     """One dict per car in race order (see ``h2h_racing.results.race_results``)."""
     steps: int
     """Env steps the race took."""
+    viewer: Any = field(default=None, repr=False, compare=False)
+    """With ``serve=True``: the ``h2h_racing.viz.RaceRecorder`` still serving the web viewer
+    (``viewer.viewer_url``); ``viewer.serve_until(seconds)`` keeps it up, then closes it."""
 
     @property
     def table(self) -> str:
@@ -43,7 +49,9 @@ class RaceResult:
 
 def run_race(track: str, drivers: list[str], race_type: str = "head_to_head",
              laps: int | None = None, seed: int = 0, grid: list[int] | None = None,
-             video: str | Path | None = None, **config: Any) -> RaceResult:
+             video: str | Path | None = None, save: str | Path | None = None,
+             spawn: bool = False, serve: bool = False, web_port: int = 9090,
+             grpc_port: int = 9876, progress: bool = False, **config: Any) -> RaceResult:
     """Race ``drivers`` (one car each) on ``track`` and return the result.
 
     Args:
@@ -54,10 +62,18 @@ def run_race(track: str, drivers: list[str], race_type: str = "head_to_head",
         seed: Seed of the race (grid draw and obstacle randomisation).
         grid: Grid slot of each car; None draws it from the seed.
         video: Write a top-down MP4 of the race to this path.
+        save: Write a rerun recording (``.rrd``) of the race to this path.
+        spawn: Stream the race to the native rerun viewer (needs a display).
+        serve: Serve the race in the rerun web viewer on 127.0.0.1; the result's
+            ``viewer`` keeps serving until ``viewer.serve_until(...)`` returns.
+        web_port: HTTP port of the web viewer with ``serve``.
+        grpc_port: gRPC port of the rerun server with ``serve``.
+        progress: Show a progress bar on stderr once the race has run for a second.
         **config: Further ``EnvConfig`` fields.
 
     Raises:
         ValueError: For an unknown driver, track or race type, or no drivers.
+        ImportError: ``save``, ``spawn`` or ``serve`` without rerun-sdk installed.
     """
     from h2h_racing.policies import make_driver
 
@@ -70,24 +86,113 @@ def run_race(track: str, drivers: list[str], race_type: str = "head_to_head",
     env = RacingEnv(track=track, num_cars=len(drivers), race_type=race_type, rules=rules,
                     render_mode="rgb_array" if video else None, **config)
     options = {"grid": grid} if grid is not None else None
-    env.reset(seed=seed, options=options)
-    for policy in policies:
-        policy.reset(env.core)
-    writer = _video_writer(video, env) if video else None
+    recorder = None
+    if save is not None or spawn or serve:
+        from h2h_racing.viz import RaceRecorder
+
+        recorder = RaceRecorder(env, path=save, spawn=spawn, serve=serve, web_port=web_port,
+                                grpc_port=grpc_port)
+    names = {f"car_{i}": name for i, name in enumerate(drivers)}
+    bar = ProgressBar(env) if progress else None
+    writer = None
     steps = 0
     try:
+        obs, infos = env.reset(seed=seed, options=options)
+        if recorder is not None:
+            recorder.log_reset(obs, infos)
+        for policy in policies:
+            policy.reset(env.core)
+        writer = _video_writer(video, env) if video else None
         while env.agents:
             actions = {agent: policies[i].act(env.core, i)[0]
                        for i, agent in enumerate(env.possible_agents) if agent in env.agents}
-            env.step(actions)
+            out = env.step(actions)
             steps += 1
+            if recorder is not None:
+                recorder.log_step(actions, *out)
             if writer is not None:
                 writer.write(_bgr(env.render()))
+            if bar is not None:
+                bar.update()
+        rows = env.results()
+        if recorder is not None:
+            recorder.log_results(rows, names)
+    except BaseException:
+        if recorder is not None:
+            recorder.close()
+        raise
     finally:
         if writer is not None:
             writer.release()
-    return RaceResult(track=env.track.name, drivers=tuple(drivers), rows=env.results(),
-                      steps=steps)
+        if bar is not None:
+            bar.close()
+    if recorder is not None and not serve:
+        recorder.close()
+    return RaceResult(track=env.track.name, drivers=tuple(drivers), rows=rows, steps=steps,
+                      viewer=recorder if serve else None)
+
+
+class ProgressBar:
+    """A one-line progress bar of a race on stderr, shown once the race has run a while.
+
+    The fraction done is the larger of the last running car's share of the lap target and
+    the share of the time limit used.
+
+    Args:
+        env: The env whose race to follow.
+        delay: Wall seconds before the bar first appears (short races show none).
+        stream: Where to draw (stderr by default).
+    """
+
+    WIDTH = 30
+    """Characters of the bar itself."""
+
+    def __init__(self, env: RacingEnv, delay: float = 1.0, stream: TextIO | None = None) -> None:
+        self.env = env
+        self.delay = delay
+        self.stream = stream if stream is not None else sys.stderr
+        self._start = time.monotonic()
+        self._last = 0.0
+        self._shown = False
+
+    def fraction(self) -> float:
+        """Return the fraction of the race done, in [0, 1]."""
+        core = self.env.core
+        rules = core.rules
+        done = 0.0
+        if rules.time_limit and math.isfinite(rules.time_limit):
+            done = float(core.time[0]) / rules.time_limit
+        if rules.laps:
+            # The race lasts until the last car still racing finishes.
+            driven = (core.distance[0] - core.lap_origin[0]) / (core.track.length * rules.laps)
+            driven[core.done[0]] = 1.0
+            done = max(done, float(driven.min()))
+        return min(max(done, 0.0), 1.0)
+
+    def update(self) -> None:
+        """Redraw the bar (at most ten times a second)."""
+        now = time.monotonic()
+        if now - self._start < self.delay or now - self._last < 0.1:
+            return
+        self._last = now
+        self._shown = True
+        fraction = self.fraction()
+        filled = round(fraction * self.WIDTH)
+        core = self.env.core
+        laps = int(core.laps[0].min())
+        target = core.rules.laps
+        lap = f" lap {min(laps + 1, target)}/{target}" if target else ""
+        self.stream.write(f"\rrace {100 * fraction:3.0f}% |{'#' * filled}"
+                          f"{'.' * (self.WIDTH - filled)}| t={float(core.time[0]):6.1f} s{lap} "
+                          f"({now - self._start:.0f} s)")
+        self.stream.flush()
+
+    def close(self) -> None:
+        """End the bar's line if it was shown."""
+        if self._shown:
+            self.stream.write("\n")
+            self.stream.flush()
+            self._shown = False
 
 
 def _bgr(frame: Any) -> Any:
