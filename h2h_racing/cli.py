@@ -3,6 +3,8 @@
     h2h-racing race [--track speedway] [--drivers racing_line,pure_pursuit] [...]
                     [--save race.rrd] [--spawn] [--serve [--serve-seconds N]]
     h2h-racing camera [--track speedway] [--car 1] [--steps 20] [--out camera.png]
+    h2h-racing train --out runs/NAME [--track T] [--obs state|camera] [--opponents none|D]
+    h2h-racing evaluate --policy runs/NAME/policy.pt [--track T] [--episodes 20]
     h2h-racing tracks list
     h2h-racing tracks show NAME [--out NAME.png]
     h2h-racing tracks import FILE [--name NAME] [--scale S | --scale L,W] [--reverse] [--out F]
@@ -121,6 +123,36 @@ def _cmd_camera(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_train(args: argparse.Namespace) -> int:
+    from h2h_racing.league.train import TrainConfig, train
+
+    opponent = None if args.opponents in (None, "none") else args.opponents
+    config = TrainConfig(track=args.track, observations=args.obs, num_envs=args.envs,
+                         num_cars=1 if opponent is None else 2,
+                         learners=None if opponent is None else 1, opponent=opponent,
+                         seed=args.seed)
+    runner = train(config, iterations=args.iterations, out=args.out, minutes=args.minutes)
+    out = Path(args.out)
+    print(f"trained {runner.current_learning_iteration} iterations -> {out / 'policy.pt'} "
+          f"(rsl-rl logs and checkpoints in {out})")
+    if args.onnx:
+        path = runner.export_policy_to_onnx(str(out), filename="policy.onnx")
+        print(f"ONNX export -> {path or out / 'policy.onnx'}")
+    return 0
+
+
+def _cmd_evaluate(args: argparse.Namespace) -> int:
+    from h2h_racing.league.evaluate import Evaluation, evaluate
+
+    print(f"{args.track}: {args.episodes} one-lap attempts from start points spread round the "
+          "lap (training rules: an infraction ends the attempt)")
+    print(Evaluation.header())
+    for driver in [args.policy, *args.baseline.split(",")]:
+        if driver:
+            print(evaluate(driver, args.track, episodes=args.episodes, seed=args.seed).row())
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Return the argument parser of the ``h2h-racing`` command."""
     parser = argparse.ArgumentParser(prog="h2h-racing", description=__doc__,
@@ -150,6 +182,31 @@ def build_parser() -> argparse.ArgumentParser:
     race.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                       help="show a progress bar on stderr (default: when stderr is a terminal)")
     race.set_defaults(func=_cmd_race)
+
+    train = sub.add_parser("train", help="train a policy with rsl-rl PPO (needs h2h-racing[train])")
+    train.add_argument("--track", default="speedway",
+                       help="catalogue name, track file or random:<seed>")
+    train.add_argument("--obs", default="state", choices=["state", "camera"])
+    train.add_argument("--opponents", default="none",
+                       help="'none' (alone), a scripted driver name or a policy.pt")
+    train.add_argument("--iterations", type=int, default=1000)
+    train.add_argument("--minutes", type=float, default=None,
+                       help="stop after this much training time (checked every 10 iterations)")
+    train.add_argument("--envs", type=int, default=256, help="env copies")
+    train.add_argument("--seed", type=int, default=0)
+    train.add_argument("--onnx", action=argparse.BooleanOptionalAction, default=True,
+                       help="also export the final policy to ONNX")
+    train.add_argument("--out", required=True, help="output folder, e.g. runs/speedway")
+    train.set_defaults(func=_cmd_train)
+
+    evaluate = sub.add_parser("evaluate", help="lap completion and lap times of a policy")
+    evaluate.add_argument("--policy", required=True, help="policy.pt or a driver name")
+    evaluate.add_argument("--track", default="speedway")
+    evaluate.add_argument("--episodes", type=int, default=20)
+    evaluate.add_argument("--seed", type=int, default=0)
+    evaluate.add_argument("--baseline", default="racing_line",
+                          help="comma-separated drivers evaluated on the same start points")
+    evaluate.set_defaults(func=_cmd_evaluate)
 
     camera = sub.add_parser("camera", help="save what a car's camera sees as a PNG")
     camera.add_argument("--track", default="speedway", help="catalogue name or track file")

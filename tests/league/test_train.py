@@ -86,3 +86,21 @@ class TestConfig:
     def test_bad_values_rejected(self) -> None:
         with pytest.raises(ValueError, match="observations"):
             TrainConfig(observations="lidar")
+
+
+class TestCommands:
+    """``h2h-racing train`` and ``h2h-racing evaluate`` from the command line."""
+
+    def test_train_then_evaluate(self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+        from h2h_racing.cli import main
+
+        out = tmp_path / "run"
+        assert main(["train", "--track", "oval", "--iterations", "2", "--envs", "8",
+                     "--out", str(out)]) == 0
+        assert (out / "policy.pt").is_file() and (out / "policy.onnx").is_file()
+        capsys.readouterr()
+        assert main(["evaluate", "--policy", str(out / "policy.pt"), "--track", "oval",
+                     "--episodes", "3"]) == 0
+        table = capsys.readouterr().out
+        # One line for the policy (named after its folder) and one for the racing-line baseline.
+        assert "run " in table and "racing_line" in table
