@@ -65,12 +65,16 @@ class RacingVecEnv(VecEnv):
         seed: Seed of the core's random generator.
         device: Torch device of the returned tensors.
         track: A ``Track`` to use instead of loading ``config.track``.
+        random_starts: Start each episode at a random point of the lap (drawn from the core's
+            generator), as DeepRacer's training starts move round the lap, so that a policy
+            learns every corner from every state; False starts on the start line.
     """
 
     def __init__(self, config: EnvConfig, num_envs: int, learners: int | None = None,
                  opponent: str | Any | None = None,
                  observations: Literal["state", "camera"] = "state", seed: int = 0,
-                 device: str = "cpu", track: Track | None = None) -> None:
+                 device: str = "cpu", track: Track | None = None,
+                 random_starts: bool = True) -> None:
         n = config.num_cars
         learners = n if learners is None else learners
         if not isinstance(learners, int) or not 1 <= learners <= n:
@@ -106,7 +110,9 @@ class RacingVecEnv(VecEnv):
         self.opponent = opponent
         self._speed_mid = 0.5 * (config.max_speed + config.min_speed)
         self._speed_half = 0.5 * (config.max_speed - config.min_speed)
-        self.core.reset(seed=seed)
+        self.random_starts = random_starts
+        self.core.seed(seed)
+        self.core.reset(start=self._starts(num_envs))
         if self.opponent is not None:
             self.opponent.reset(self.core)
         if self._camera is not None:
@@ -151,7 +157,7 @@ class RacingVecEnv(VecEnv):
         time_outs = dones & ~terminated
         log = self._episode_log(ended, terms) if ended.any() else {}
         if ended.any():
-            core.reset_envs(ended)
+            core.reset_envs(ended, start=self._starts(int(ended.sum())))
             if self._camera is not None:
                 self._camera.reset(core)
         self._obs = self._observe()
@@ -163,6 +169,11 @@ class RacingVecEnv(VecEnv):
                 self._tensor(dones.reshape(-1), torch.long), extras)
 
     # ---------------------------------------------------------------- helpers
+    def _starts(self, count: int) -> npt.NDArray[np.float64] | None:
+        if not self.random_starts:
+            return None
+        return self.core.rng.uniform(0.0, self.track.length, count)
+
     def _tensor(self, array: npt.NDArray[Any], dtype: torch.dtype) -> torch.Tensor:
         return torch.tensor(np.asarray(array), dtype=dtype, device=self.device)
 
