@@ -425,6 +425,12 @@ class EnvConfig:
     """Commanded speed for a speed action of -1 [m/s]."""
     max_speed: float = 4.0
     """Commanded speed for a speed action of +1 [m/s]; at most ``car.max_speed``."""
+    min_steer_deg: float | None = None
+    """Commanded steering for a steer action of -1 [deg, left positive]; None (with
+    ``max_steer_deg`` None) means ``-car.max_steer``. DeepRacer's continuous action spaces
+    map [-1, 1] linearly to [low, high] (``ScalableBoxActionSpace``)."""
+    max_steer_deg: float | None = None
+    """Commanded steering for a steer action of +1 [deg]; None means ``+car.max_steer``."""
     discrete_actions: tuple[tuple[float, float], ...] = DEFAULT_DISCRETE_ACTIONS
     """(steering angle [deg, left positive], speed [m/s]) pairs of the discrete action space."""
     num_obstacles: int | None = None
@@ -475,6 +481,17 @@ class EnvConfig:
         _check(0.0 <= self.min_speed < self.max_speed <= self.car.max_speed, owner,
                "min_speed/max_speed", (self.min_speed, self.max_speed),
                f"0 <= min_speed < max_speed <= car.max_speed ({self.car.max_speed})")
+        limit = math.degrees(self.car.max_steer)
+        _check((self.min_steer_deg is None) == (self.max_steer_deg is None), owner,
+               "min_steer_deg/max_steer_deg", (self.min_steer_deg, self.max_steer_deg),
+               "both None or both numbers")
+        if self.min_steer_deg is not None:
+            _check(isinstance(self.min_steer_deg, (int, float))
+                   and isinstance(self.max_steer_deg, (int, float))
+                   and -limit - 1e-9 <= self.min_steer_deg < self.max_steer_deg <= limit + 1e-9,
+                   owner, "min_steer_deg/max_steer_deg", (self.min_steer_deg, self.max_steer_deg),
+                   f"numbers with -{limit:g} <= min_steer_deg < max_steer_deg <= {limit:g} "
+                   f"(car.max_steer in degrees)")
         _check(len(self.discrete_actions) >= 1, owner, "discrete_actions",
                self.discrete_actions, "a non-empty tuple of (steering_deg, speed) pairs")
         for i, pair in enumerate(self.discrete_actions):
@@ -510,6 +527,13 @@ class EnvConfig:
     def race_rules(self) -> RaceRules:
         """The rules in force: ``rules`` or the race type's preset."""
         return self.rules if self.rules is not None else RaceRules.preset(self.race_type)
+
+    @property
+    def steer_range(self) -> tuple[float, float]:
+        """Steering commanded by continuous actions -1 and +1 [rad]."""
+        if self.min_steer_deg is None or self.max_steer_deg is None:
+            return -self.car.max_steer, self.car.max_steer
+        return math.radians(self.min_steer_deg), math.radians(self.max_steer_deg)
 
     @property
     def obstacle_count(self) -> int:

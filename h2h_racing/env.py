@@ -17,7 +17,8 @@ model (tyre slip, friction limit); contacts between cars and with box obstacles 
 physical (pymunk), so cars bump, push and block one another.
 
 ## Actions
-Continuous: `steer` in [-1, 1] maps linearly to [-30, 30] degrees (positive = left);
+Continuous: `steer` in [-1, 1] maps linearly to [`min_steer_deg`, `max_steer_deg`]
+(default [-30, 30]) degrees (positive = left);
 `speed` in [-1, 1] maps linearly to [`min_speed`, `max_speed`] m/s (default 0.5 to 4).
 The speed is a command: a speed controller reaches it with the car's acceleration limits,
 as on the real car. Finite values outside [-1, 1] are clipped; NaN or inf raise
@@ -56,6 +57,20 @@ The weighted sum of these terms (weights in `RewardConfig`; each weighted term i
 | lap | 1 per completed lap | 0.0 |
 | time | 1 per step while racing | 0.0 |
 
+### DeepRacer reward functions
+`reward_function="path/to/reward.py"` (or a callable `f(params)`) replaces the reward above:
+each car's reward is `float(reward_function(params))` from the first step on (`params["steps"]
+== 1.0`), with DeepRacer's 27-key `params` (`h2h_racing.deepracer.params`: the model point
+0.14 m ahead of the car, progress relative to the episode's start, commanded speed and
+steering, the other cars and the obstacles as `objects_*`). A file is loaded once per car, so
+module-level state is per car; a callable is shared. A car frozen by a penalty gets 0.0
+without a call. The function gets a deep copy; `infos[agent]["deepracer_params"]` holds the
+params of that step (None when the car was not rated), and `reward_terms` still holds the
+built-in terms. An exception, a non-number, NaN or inf raises `RewardFunctionError`
+naming the file, car, step and params; a reward outside +-1e5 warns once per car.
+`h2h_racing.deepracer.load_model_metadata("model_metadata.json")` gives the matching action
+space and sensors as keyword overrides.
+
 ## Race rules, termination and truncation
 Rules are `RaceRules` (presets by `race_type`; `rules="training"` or `"race"`):
 - infractions: off track (all four wheels off), crash at fault, reversed (progress falling
@@ -82,12 +97,15 @@ start line), `lap`, `lap_times`, `last_lap_time`, `best_lap_time`, `rank`, `gap_
 ## Arguments
 ```python
 h2h_racing.parallel_env(track="speedway", num_cars=2, race_type="head_to_head",
-                        rules=None, render_mode=None, max_cycles=10_000, **config)
+                        rules=None, render_mode=None, max_cycles=10_000,
+                        reward_function=None, **config)
 ```
 `track`: a catalogue name (`h2h-racing tracks list`), a track file (.json, .npy, .csv) or
 a `Track`. `rules`: None (the race type's preset), `"race"`, `"training"` or a `RaceRules`.
 Every other keyword is a field of `EnvConfig` (e.g. `action_type="discrete"`,
 `num_obstacles=4`, `randomize_obstacles=True`, `grid="fixed"`, `reward=RewardConfig(...)`).
+`min_steer_deg`/`max_steer_deg` set the continuous steering range (default +-30 deg).
+`reward_function`: None (built-in reward), a `.py` file path or a callable (see above).
 `reset(seed, options)` accepts `options={"grid": [slot of car_0, slot of car_1, ...]}`.
 
 ## Determinism and pickling
@@ -107,6 +125,8 @@ import dataclasses
 import math
 import numbers
 import types
+from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -119,6 +139,8 @@ from pettingzoo.utils.conversions import parallel_to_aec
 from h2h_racing import rewards
 from h2h_racing.config import EnvConfig, RaceRules
 from h2h_racing.core import RaceCore
+from h2h_racing.deepracer.params import ParamsBuilder
+from h2h_racing.deepracer.reward import DeepRacerReward
 from h2h_racing.race import TIME_EPS
 from h2h_racing.sensors.camera import CameraSensor
 from h2h_racing.sensors.lidar import LidarSensor
@@ -145,6 +167,9 @@ class RacingEnv(ParallelEnv):
         rules: None, ``"race"``, ``"training"`` or a ``RaceRules``.
         render_mode: None or ``"rgb_array"``.
         config: An ``EnvConfig``; when given, the other configuration arguments must not be.
+        reward_function: A DeepRacer reward function: the path of a ``.py`` file defining
+            ``reward_function(params)`` (loaded once per car) or a callable; None keeps the
+            built-in reward.
         **overrides: Further ``EnvConfig`` fields.
     """
 
@@ -158,6 +183,7 @@ class RacingEnv(ParallelEnv):
     def __init__(self, track: str | Track = "speedway", num_cars: int = 2,
                  race_type: str = "head_to_head", rules: Any = None,
                  render_mode: str | None = None, config: EnvConfig | None = None,
+                 reward_function: str | Path | Callable[[dict[str, Any]], Any] | None = None,
                  **overrides: Any) -> None:
         # "human" is accepted so that PettingZoo's render_test can read the metadata; this
         # headless build cannot open a window and says so on the first render().
@@ -209,6 +235,19 @@ class RacingEnv(ParallelEnv):
         self._action_spaces = {a: act_space for a in self.possible_agents}
         self._speed_scale = 0.5 * (config.max_speed - config.min_speed)
         self._speed_mid = 0.5 * (config.max_speed + config.min_speed)
+        steer_low, steer_high = config.steer_range
+        self._steer_scale = 0.5 * (steer_high - steer_low)
+        self._steer_mid = 0.5 * (steer_high + steer_low)
+        self._chosen: list[int] = []
+        self._deepracer: DeepRacerReward | None = None
+        self._params: ParamsBuilder | None = None
+        if reward_function is not None:
+            self._deepracer = DeepRacerReward(reward_function, config.num_cars,
+                                              self.possible_agents)
+            self._params = ParamsBuilder(
+                self.track, config.car, config.num_cars,
+                obstacle_size=(config.obstacle_length, config.obstacle_width),
+                camera_hfov_deg=config.camera.hfov_deg, camera_forward_m=config.camera.forward_m)
         self._weights = rewards.weights_of(config.reward)
         no_car = np.zeros((1, config.num_cars), dtype=bool)
         self._no_events = types.SimpleNamespace(off_track=no_car, crashed=no_car,
@@ -258,6 +297,8 @@ class RacingEnv(ParallelEnv):
                 raise ValueError(f"options['grid'] must list one slot per car "
                                  f"({self.config.num_cars}), got {options['grid']!r}")
         self.core.reset(seed=seed, slots=slots)
+        if self._params is not None:
+            self._params.reset()
         if self._lidar is not None and self.config.lidar.noise_std > 0:
             # The lidar's noise has a generator of its own, seeded from the env's, so that
             # turning noise on does not change the race's random stream.
@@ -297,6 +338,9 @@ class RacingEnv(ParallelEnv):
         events = core.step(steer, speed)
         terms, reward_array = rewards.reward_terms(self._weights, events, core.speed, racing)
         reward = reward_array[0].tolist()
+        params = None
+        if self._deepracer is not None:
+            reward, params = self._deepracer_rewards(agents, racing[0], steer[0], events)
         obs = self._observations()
         term = events.terminated[0].tolist()
         trunc = events.truncated[0].tolist()
@@ -305,11 +349,40 @@ class RacingEnv(ParallelEnv):
         terminations = {a: term[index[a]] for a in agents}
         truncations = {a: trunc[index[a]] for a in agents}
         infos = self._infos(agents, events, terms=terms)
+        if params is not None:
+            for a in agents:
+                infos[a]["deepracer_params"] = params[index[a]]
         if any(term) or any(trunc):
             self.agents = [a for a in agents if not (terminations[a] or truncations[a])]
             self._live = set(self.agents)
         obs = {a: obs[a] for a in agents}
         return obs, rewards_out, terminations, truncations, infos
+
+    def _deepracer_rewards(self, agents: list[str], racing: npt.NDArray[np.bool_],
+                           steer: npt.NDArray[np.float64], events: Any,
+                           ) -> tuple[list[float], list[dict[str, Any] | None]]:
+        """Call the DeepRacer reward function of every car that raced during the step.
+
+        Cars frozen by a penalty get 0.0 without a call (DeepRacer's PAUSE phase), and
+        None as params.
+        """
+        assert self._deepracer is not None and self._params is not None
+        n = self.config.num_cars
+        if self.config.action_type == "discrete":
+            # The action list's own numbers, not a round trip through radians.
+            steering_deg = np.zeros(n)
+            table = self.config.discrete_actions
+            for a, choice in zip(agents, self._chosen):
+                steering_deg[self._index[a]] = table[choice][0]
+        else:
+            steering_deg = np.degrees(steer)
+        rated = [self._index[a] for a in agents if racing[self._index[a]]]
+        params = self._params.from_core(self.core, steering_deg=steering_deg, events=events,
+                                        cars=rated)
+        reward = [0.0] * n
+        for i in rated:
+            reward[i] = self._deepracer(i, params[i])
+        return reward, params
 
     def _parse_actions(self, actions: Any, agents: list[str],
                        ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
@@ -335,7 +408,7 @@ class RacingEnv(ParallelEnv):
                                  f"got shapes {bad}")
             steer_values = np.empty(len(agents))
             speed_values = np.empty(len(agents))
-            if not _scale_actions(values, self.config.car.max_steer, self._speed_mid,
+            if not _scale_actions(values, self._steer_mid, self._steer_scale, self._speed_mid,
                                   self._speed_scale, steer_values, speed_values):
                 bad = {a: actions[a] for a, row in zip(agents, values)
                        if not np.isfinite(row).all()}
@@ -353,6 +426,7 @@ class RacingEnv(ParallelEnv):
                     raise ValueError(f"action of {a} must be an integer index in "
                                      f"[0, {count - 1}], got {value!r}")
                 chosen.append(int(value))
+            self._chosen = chosen
             steer_values = self._discrete_steer[chosen]
             speed_values = self._discrete_speed[chosen]
         if every:
@@ -449,14 +523,17 @@ class RacingEnv(ParallelEnv):
 
 
 @njit(cache=True)
-def _scale_actions(values, max_steer, speed_mid, speed_half, steer, speed):  # pragma: no cover
+def _scale_actions(values, steer_mid, steer_half, speed_mid, speed_half, steer,
+                   speed):  # pragma: no cover
     # Clip [steer, speed] to [-1, 1] and map to radians and m/s; False if any is NaN or inf.
     for i in range(values.shape[0]):
         a = values[i, 0]
         b = values[i, 1]
         if not (math.isfinite(a) and math.isfinite(b)):
             return False
-        steer[i] = min(max(a, -1.0), 1.0) * max_steer
+        steer[i] = min(max(a, -1.0), 1.0) * steer_half
+        if steer_mid != 0.0:
+            steer[i] += steer_mid
         speed[i] = speed_mid + min(max(b, -1.0), 1.0) * speed_half
     return True
 

@@ -1,0 +1,177 @@
+"""Read DeepRacer's ``model_metadata.json`` into ``EnvConfig`` overrides.
+
+Schema (simapp ``boto/s3/files/model_metadata.py``): ``action_space`` (required) is a list
+of ``{"steering_angle": deg, "speed": m/s[, "index": i]}`` (discrete) or
+``{"steering_angle": {"low", "high"}, "speed": {"low", "high"}}`` (continuous);
+``action_space_type`` ``"discrete"`` (default) or ``"continuous"``; ``sensor`` a list with
+one camera and at most one lidar; ``lidar_config`` ``{num_sectors, num_values_per_sector,
+clipping_dist}``. Values are clipped to DeepRacer's actuator limits (``agent_ctrl/constants.py``:
+``MAX_ANGLE = 30`` deg, ``MIN_SPEED = 0.1``, ``MAX_SPEED = 4`` m/s), with a warning.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from pathlib import Path
+from typing import Any
+
+from h2h_racing.config import CameraConfig, LidarConfig
+
+MAX_STEER_DEG = 30.0
+"""DeepRacer's steering limit [deg]."""
+MIN_SPEED = 0.1
+"""DeepRacer's lowest actuated speed [m/s]."""
+MAX_SPEED = 4.0
+"""DeepRacer's highest actuated speed [m/s]."""
+
+CAMERAS = ("FRONT_FACING_CAMERA", "STEREO_CAMERAS", "LEFT_CAMERA", "observation")
+LIDARS = ("LIDAR", "SECTOR_LIDAR", "DISCRETIZED_SECTOR_LIDAR")
+
+
+def _fail(path: Path, key: str, expected: str, got: Any) -> ValueError:
+    return ValueError(f"{path}: {key} must be {expected}, got {got!r}; fix model_metadata.json "
+                      f"(see DeepRacer's schema in h2h_racing.deepracer.metadata)")
+
+
+def _number(path: Path, key: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise _fail(path, key, "a finite number", value)
+    return float(value)
+
+
+def _clip(path: Path, key: str, value: float, low: float, high: float) -> float:
+    clipped = min(max(value, low), high)
+    if clipped != value:
+        warnings.warn(f"{path}: {key} = {value:g} is outside DeepRacer's actuator limits "
+                      f"[{low:g}, {high:g}]; clipped to {clipped:g}", UserWarning, stacklevel=3)
+    return clipped
+
+
+def load_model_metadata(path: str | Path) -> dict[str, Any]:
+    """Return ``EnvConfig`` overrides for a DeepRacer ``model_metadata.json``.
+
+    Args:
+        path: The JSON file.
+
+    Returns:
+        A dict for ``parallel_env(**overrides)`` / ``dataclasses.replace(config, **overrides)``
+        with ``action_type`` and either ``discrete_actions`` ((steering deg, speed m/s) in
+        the file's order, or by ``index`` when every action has one) or ``min_speed``,
+        ``max_speed``, ``min_steer_deg``, ``max_steer_deg``; plus ``sensors`` (camera ->
+        ``"camera"``, lidars -> ``"lidar"``), and ``camera`` / ``lidar`` configs where the
+        sensor needs one (stereo cameras, sector lidar).
+
+    Raises:
+        ValueError: Unreadable JSON or a bad key, naming the file and the key.
+    """
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{path}: cannot read model metadata ({exc}); expected a JSON object "
+                         f"with an 'action_space'") from exc
+    if not isinstance(data, dict):
+        raise _fail(path, "the file", "a JSON object", type(data).__name__)
+    if "action_space" not in data:
+        raise _fail(path, "'action_space'", "present (a list or a dict)", None)
+    space = data["action_space"]
+    kind = data.get("action_space_type", "discrete")
+    if kind not in ("discrete", "continuous"):
+        raise _fail(path, "'action_space_type'", "'discrete' or 'continuous'", kind)
+    algorithm = data.get("training_algorithm", "clipped_ppo")
+    if algorithm not in ("clipped_ppo", "sac"):
+        raise _fail(path, "'training_algorithm'", "'clipped_ppo' or 'sac'", algorithm)
+    if algorithm == "sac" and kind != "continuous":
+        raise _fail(path, "'action_space_type'", "'continuous' with training_algorithm 'sac'",
+                    kind)
+    overrides: dict[str, Any] = {"action_type": kind}
+    if kind == "discrete":
+        overrides["discrete_actions"] = _discrete(path, space)
+    else:
+        overrides.update(_continuous(path, space))
+    overrides.update(_sensors(path, data.get("sensor", ["FRONT_FACING_CAMERA"]),
+                              data.get("lidar_config")))
+    return overrides
+
+
+def _discrete(path: Path, space: Any) -> tuple[tuple[float, float], ...]:
+    if not isinstance(space, list) or not space:
+        raise _fail(path, "'action_space'", "a non-empty list of {steering_angle, speed} for "
+                    "a discrete action space", space)
+    actions = []
+    indices = []
+    for i, item in enumerate(space):
+        key = f"action_space[{i}]"
+        if not isinstance(item, dict) or "steering_angle" not in item or "speed" not in item:
+            raise _fail(path, key, "an object with 'steering_angle' and 'speed'", item)
+        steer = _clip(path, f"{key}.steering_angle",
+                      _number(path, f"{key}.steering_angle", item["steering_angle"]),
+                      -MAX_STEER_DEG, MAX_STEER_DEG)
+        speed = _clip(path, f"{key}.speed", _number(path, f"{key}.speed", item["speed"]),
+                      MIN_SPEED, MAX_SPEED)
+        actions.append((steer, speed))
+        indices.append(item.get("index"))
+    if all(isinstance(i, int) for i in indices):
+        if sorted(indices) != list(range(len(actions))):
+            raise _fail(path, "'action_space[*].index'", f"a permutation of 0..{len(actions) - 1}",
+                        indices)
+        actions = [a for _, a in sorted(zip(indices, actions))]
+    return tuple(actions)
+
+
+def _range(path: Path, space: dict[str, Any], name: str) -> tuple[float, float]:
+    item = space.get(name)
+    if not isinstance(item, dict) or "low" not in item or "high" not in item:
+        raise _fail(path, f"'action_space.{name}'", "an object with 'low' and 'high'", item)
+    return (_number(path, f"action_space.{name}.low", item["low"]),
+            _number(path, f"action_space.{name}.high", item["high"]))
+
+
+def _continuous(path: Path, space: Any) -> dict[str, float]:
+    if not isinstance(space, dict):
+        raise _fail(path, "'action_space'", "an object {steering_angle: {low, high}, speed: "
+                    "{low, high}} for a continuous action space", space)
+    steer_low, steer_high = _range(path, space, "steering_angle")
+    speed_low, speed_high = _range(path, space, "speed")
+    steer_low = _clip(path, "action_space.steering_angle.low", steer_low, -MAX_STEER_DEG,
+                      MAX_STEER_DEG)
+    steer_high = _clip(path, "action_space.steering_angle.high", steer_high, -MAX_STEER_DEG,
+                       MAX_STEER_DEG)
+    speed_low = _clip(path, "action_space.speed.low", speed_low, MIN_SPEED, MAX_SPEED)
+    speed_high = _clip(path, "action_space.speed.high", speed_high, MIN_SPEED, MAX_SPEED)
+    if not steer_low < steer_high:
+        raise _fail(path, "'action_space.steering_angle'", "low < high", (steer_low, steer_high))
+    if not speed_low < speed_high:
+        raise _fail(path, "'action_space.speed'", "low < high", (speed_low, speed_high))
+    return {"min_steer_deg": steer_low, "max_steer_deg": steer_high,
+            "min_speed": speed_low, "max_speed": speed_high}
+
+
+def _sensors(path: Path, sensor: Any, lidar_config: Any) -> dict[str, Any]:
+    if not isinstance(sensor, list) or not all(isinstance(s, str) for s in sensor):
+        raise _fail(path, "'sensor'", "a list of sensor names", sensor)
+    cameras = [s for s in sensor if s in CAMERAS]
+    lidars = [s for s in sensor if s in LIDARS]
+    unknown = [s for s in sensor if s not in CAMERAS + LIDARS]
+    if unknown:
+        raise _fail(path, "'sensor'", f"names from {CAMERAS + LIDARS}", unknown)
+    if len(cameras) != 1 or len(lidars) > 1:
+        raise _fail(path, "'sensor'", "exactly one camera and at most one lidar", sensor)
+    out: dict[str, Any] = {"sensors": ("camera", "lidar") if lidars else ("camera",)}
+    if cameras[0] == "STEREO_CAMERAS":
+        out["camera"] = CameraConfig(stereo=True)
+    if not lidars:
+        return out
+    if lidars[0] == "LIDAR":
+        out["lidar"] = LidarConfig()
+    elif lidars[0] == "SECTOR_LIDAR":
+        out["lidar"] = LidarConfig(mode="sector_lidar")
+    else:
+        raise _fail(path, "'sensor'", "a supported lidar ('LIDAR' or 'SECTOR_LIDAR'; "
+                    "DISCRETIZED_SECTOR_LIDAR's one-hot encoding is not implemented yet)",
+                    lidars[0])
+    if lidar_config is not None and not isinstance(lidar_config, dict):
+        raise _fail(path, "'lidar_config'", "an object", lidar_config)
+    return out
