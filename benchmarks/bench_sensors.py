@@ -30,17 +30,11 @@ from h2h_racing.core import RaceCore
 from h2h_racing.sensors.camera import CameraConfig, CameraSensor
 from h2h_racing.sensors.lidar import LidarConfig, LidarSensor
 
+from bench_env import centre_controller  # benchmarks/ is on sys.path when run as a script
+
 ENDLESS = RaceRules(laps=0, time_limit=1e9)
 """A race that never ends by itself, so that the timed loop never hits a reset."""
 TRACK = "oval"
-
-
-def centre_controller(core: RaceCore) -> tuple[np.ndarray, np.ndarray]:
-    """Steer toward the centre line at a steady 2.5 m/s: (steer [rad], speed [m/s]), (E, N)."""
-    heading = core.track.heading_at(core.s)
-    error = np.remainder(core.yaw - heading + np.pi, 2 * np.pi) - np.pi
-    steer = np.clip(-1.5 * core.d - 1.2 * error, -0.5, 0.5)
-    return steer, np.full(core.s.shape, 2.5)
 
 
 def make_core(num_envs: int, obstacles: int) -> RaceCore:

@@ -3,12 +3,11 @@
     python benchmarks/bench_viz.py               # about 10 s
     python benchmarks/bench_viz.py --out race.rrd --track oval
 
-What is timed: a 2-car, 3-lap head-to-head race (racing_line vs pure_pursuit) recorded with
-``h2h_racing.viz.RaceRecorder`` to a ``.rrd`` file, cameras on (one JPEG per car per step,
-rendered by the recorder's own camera since the env observes state only). The clock runs
-from the recorder's creation (rerun import excluded, done before) through ``env.reset``,
-every ``env.step`` with its logging, and ``close`` (the file flushed), so it includes the
-drivers and the race itself. Budgets (issue 5): real-time factor >= 5x, file < 30 MB.
+What is timed: a 2-car, 3-lap head-to-head race (racing_line vs pure_pursuit) run by
+``h2h_racing.match.run_race`` (what ``h2h-racing race`` runs), recorded with ``save=`` to a
+``.rrd`` file, cameras on (one JPEG per car per step, rendered by the recorder's own camera
+since the env observes state only). The clock covers the whole call (env, drivers, race,
+logging and closing the file); the rerun import is done before. Budgets (issue 5): real-time factor >= 5x, file < 30 MB.
 
 Figures printed:
 - real-time factor: simulated race seconds / wall seconds;
@@ -19,18 +18,16 @@ Figures printed:
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import platform
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
-from h2h_racing.policies import make_driver
 
-import h2h_racing
-from h2h_racing.config import RaceRules
-from h2h_racing.viz import RaceRecorder, import_rerun
+from h2h_racing.config import EnvConfig
+from h2h_racing.match import run_race
+from h2h_racing.viz import import_rerun
 
 DRIVERS = ("racing_line", "pure_pursuit")
 RTF_BUDGET = 5.0
@@ -38,30 +35,12 @@ SIZE_BUDGET_MB = 30.0
 
 
 def race(track: str, laps: int, out: Path | None) -> tuple[float, float, int]:
-    """Run the race, recorded to ``out`` when given: (simulated s, wall s, steps)."""
-    rules = dataclasses.replace(RaceRules.preset("head_to_head"), laps=laps)
-    env = h2h_racing.parallel_env(track=track, num_cars=len(DRIVERS), rules=rules)
-    drivers = [make_driver(name) for name in DRIVERS]
+    """Run the race with ``run_race``, recorded to ``out`` when given: (simulated s, wall s,
+    steps)."""
     start = time.perf_counter()
-    recorder = RaceRecorder(env, path=out) if out is not None else None
-    obs, infos = env.reset(seed=0)
-    if recorder is not None:
-        recorder.log_reset(obs, infos)
-    for driver in drivers:
-        driver.reset(env.core)
-    steps = 0
-    while env.agents:
-        actions = {agent: drivers[i].act(env.core, i)[0]
-                   for i, agent in enumerate(env.possible_agents) if agent in env.agents}
-        result = env.step(actions)
-        steps += 1
-        if recorder is not None:
-            recorder.log_step(actions, *result)
-    if recorder is not None:
-        recorder.log_results(env.results())
-        recorder.close()
+    result = run_race(track, list(DRIVERS), laps=laps, seed=0, save=out)
     wall = time.perf_counter() - start
-    return float(env.core.time[0]), wall, steps
+    return result.steps * EnvConfig().step_dt, wall, result.steps
 
 
 def main() -> None:

@@ -12,6 +12,7 @@ Only numpy, json and pathlib are used here.
 
 from __future__ import annotations
 
+import functools
 import json
 from pathlib import Path
 from typing import Any
@@ -76,10 +77,10 @@ def load_track(
     """
     text = str(name_or_path)
     cat = catalogue()
-    if isinstance(name_or_path, str) and text.startswith(RANDOM_PREFIX):
-        track = _random(text)
-    elif isinstance(name_or_path, str) and text in cat:
-        path = cat[text]
+    if isinstance(name_or_path, str) and (text.startswith(RANDOM_PREFIX) or text in cat):
+        # Named tracks are immutable and loaded once per process: their lookup grid and any
+        # racing line computed for them are shared by every env and driver that uses them.
+        track = _load_named(text, cat.get(text))
     else:
         path = Path(name_or_path)
         if path.suffix.lower() not in _SUFFIXES:
@@ -90,14 +91,8 @@ def load_track(
             )
         if not path.is_file():
             raise FileNotFoundError(f"Track file not found: {path.resolve()}")
-    if not text.startswith(RANDOM_PREFIX):
-        suffix = path.suffix.lower()
-        if suffix == ".json":
-            track = _read_json(path)
-        elif suffix == ".npy":
-            track = _read_npy(path)
-        else:
-            track = _read_csv(path)
+        readers = {".json": _read_json, ".npy": _read_npy, ".csv": _read_csv}
+        track = readers[path.suffix.lower()](path)
     if scale is not None:
         track = _scaled(track, scale)
     return track.reversed() if reverse else track
@@ -243,6 +238,12 @@ def _scaled(track: Track, scale: Any) -> Track:
         right_border=track.right_border * ls if uniform and track._explicit_borders else None,
         waypoints=track.waypoints * ls,
     )
+
+
+@functools.lru_cache(maxsize=64)
+def _load_named(text: str, path: Path | None) -> Track:
+    """Load a catalogue track (``path``) or build ``random:<seed>`` (``path`` None)."""
+    return _random(text) if path is None else _read_json(path)
 
 
 def _random(text: str) -> Track:

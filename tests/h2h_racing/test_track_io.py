@@ -202,3 +202,16 @@ class TestRandomTracks:
     def test_bad_seed_is_a_clear_error(self) -> None:
         with pytest.raises(ValueError, match="random:<integer seed>"):
             load_track("random:abc")
+
+
+class TestNamedTrackCache:
+    """Catalogue and random tracks are loaded once per process and shared (they are immutable)."""
+
+    def test_same_object_for_the_same_name(self) -> None:
+        assert load_track("oval") is load_track("oval")
+        assert load_track("random:5") is load_track("random:5")
+
+    def test_reversed_and_scaled_are_new_tracks(self) -> None:
+        base = load_track("oval")
+        assert load_track("oval", reverse=True) is not base
+        assert load_track("oval", scale=2.0).length == pytest.approx(2.0 * base.length)
