@@ -377,20 +377,24 @@ def make_driver(name: str, **kwargs: Any) -> Driver:
 
     Args:
         name: One of ``DRIVERS`` (``"pure_pursuit"``, ``"racing_line"``, ``"blocker"``,
-            ``"random"``; ``"random"`` needs ``rng=np.random.default_rng(seed)``), or the path
-            of a trained ``policy.pt`` (see ``h2h_racing.policies.trained``).
+            ``"random"``; ``"random"`` needs ``rng=np.random.default_rng(seed)``), a shipped
+            trained policy (``policies/trained/<name>/policy.pt``, e.g. ``"ppo_speedway"``), or
+            the path of a ``policy.pt`` (see ``h2h_racing.policies.trained``).
         **kwargs: Constructor arguments of the driver.
 
     Raises:
         ValueError: If the name is unknown.
     """
-    if name.endswith(".pt"):
-        from h2h_racing.policies.trained import TrainedPolicy
+    from h2h_racing.policies.trained import TrainedPolicy, shipped_policies
 
+    if name.endswith(".pt"):
         return TrainedPolicy(name, **kwargs)
+    shipped = shipped_policies()
+    if name in shipped:
+        return TrainedPolicy(shipped[name], name=name, **kwargs)
     if name not in DRIVERS:
-        raise ValueError(f"unknown driver {name!r}; known drivers are {sorted(DRIVERS)} or "
-                         "the path of a trained policy.pt")
+        raise ValueError(f"unknown driver {name!r}; known drivers are "
+                         f"{sorted(DRIVERS) + sorted(shipped)} or the path of a policy.pt")
     return DRIVERS[name](**kwargs)
 
 

@@ -20,9 +20,18 @@ if TYPE_CHECKING:
 
 POLICY_FORMAT = "h2h-racing-policy/1"
 """Value of the ``format`` key of a policy file (as written by ``league.train.save_policy``)."""
+TRAINED_DIR = Path(__file__).resolve().parent / "trained"
+"""Shipped policies: ``trained/<name>/policy.pt`` with a ``CARD.md`` beside it."""
 _OBSERVATION_KEYS = ("opponent_slots", "obstacle_slots")
 _CAMERA_KEYS = ("width", "height", "stereo", "frame_stack", "height_m", "forward_m", "pitch_deg",
                 "hfov_deg")
+
+
+def shipped_policies() -> dict[str, Path]:
+    """Return the policies shipped with the package, ``{name: path of policy.pt}``."""
+    if not TRAINED_DIR.is_dir():
+        return {}
+    return {p.parent.name: p for p in sorted(TRAINED_DIR.glob("*/policy.pt"))}
 
 
 class TrainedPolicy:

@@ -27,6 +27,10 @@ class TestWheel:
             assert f"h2h_racing/catalogue/{track}.png" in names
         assert "h2h_racing/policies/scripted.py" in names
         assert "h2h_racing/league/vec_env.py" in names
+        for policy in (REPO / "policies" / "trained").glob("*/policy.pt"):
+            name = policy.parent.name
+            assert f"h2h_racing/policies/trained/{name}/policy.pt" in names
+            assert f"h2h_racing/policies/trained/{name}/CARD.md" in names
         # Every subpackage of h2h_racing/ made it (the package list in pyproject is explicit).
         for init in (REPO / "h2h_racing").rglob("__init__.py"):
             module = init.relative_to(REPO).as_posix()

@@ -104,3 +104,15 @@ class TestCommands:
         table = capsys.readouterr().out
         # One line for the policy (named after its folder) and one for the racing-line baseline.
         assert "run " in table and "racing_line" in table
+
+
+class TestShippedPolicies:
+    """Policies shipped under policies/trained/ load by name and drive."""
+
+    def test_ppo_speedway_finishes_a_lap_of_the_default_track(self) -> None:
+        from h2h_racing.league.evaluate import evaluate
+
+        result = evaluate("ppo_speedway", "speedway", episodes=2)
+        assert result.lap_completion == 1.0
+        # Its card reports laps of 8.8-9.7 s; the racing-line driver's is about 8.6 s.
+        assert result.mean_lap_time < 11.0
