@@ -276,9 +276,10 @@ class RaceCore:
             slots: Grid slot of each car, shape (N,) or (E, N); None draws them as
                 ``config.grid`` says.
             start: Arc position of grid slot 0 in each copy, shape (E,) [m]; None puts it on
-                the start line. Under ``training`` rules laps then count from each car's start
-                (DeepRacer's training starts round the lap); race distances stay measured
-                from the start line.
+                the start line. Under ``race`` rules laps then count from that point (the race
+                starts and finishes there); under ``training`` rules from each car's own start
+                (DeepRacer's training starts round the lap). Distances stay measured from the
+                track's start line.
         """
         if seed is not None:
             self.seed(seed)
@@ -322,8 +323,10 @@ class RaceCore:
                 raise ValueError(f"slots must be a permutation of 0..{n - 1}, got {slot[0]}")
         offset, lane = spawn.grid_slots(n, cfg.grid_spacing, self.inner_sign)
         car_offset = offset[slot]
+        line = np.zeros((m, 1))
         if start is not None:
-            car_offset = car_offset + np.asarray(start, dtype=np.float64).reshape(m, 1)
+            line = np.asarray(start, dtype=np.float64).reshape(m, 1)
+            car_offset = car_offset + line
         car_lane = lane[slot]
         s = np.mod(car_offset, track.length)
         d = spawn.lane_offset(track, s, car_lane)
@@ -341,7 +344,7 @@ class RaceCore:
         self.distance[mask] = car_offset
         self.start_distance[mask] = car_offset
         # Races count laps from the start line; training counts them from each car's start.
-        self.lap_origin[mask] = car_offset if self.rules.mode == "training" else 0.0
+        self.lap_origin[mask] = car_offset if self.rules.mode == "training" else line
         for name in ("laps", "lap_resets", "resets", "penalties", "reverse_count",
                      "immobile_count", "off_tracks", "crashes", "collisions", "overtakes",
                      "overtaken", "defences"):

@@ -84,3 +84,67 @@ def evaluate(driver: Any, track: str, episodes: int = 20, seed: int = 0,
         mean_lap_time=float(np.mean(laps)) if laps else float("inf"),
         best_lap_time=float(np.min(laps)) if laps else float("inf"),
         off_tracks=int(core.off_tracks[:, 0].sum()), collisions=int(core.collisions[:, 0].sum()))
+
+
+@dataclass(frozen=True)
+class HeadToHead:
+    """Outcome of ``races`` 2-car races between two drivers, half in each seat order."""
+
+    drivers: tuple[str, str]
+    track: str
+    races: int
+    wins: tuple[int, int]
+    """Races won by each driver (first across the line after the lap target)."""
+    overtakes: tuple[int, int]
+    """On-track passes made by each driver, over all races."""
+    crashes: tuple[int, int]
+    """Contacts each driver was judged to have caused (it was behind)."""
+    finished: tuple[int, int]
+    """Races each driver finished."""
+
+    def summary(self) -> str:
+        """A short text report."""
+        a, b = self.drivers
+        return (f"{self.track}, {self.races} races ({self.races // 2} in each seat order): "
+                f"{a} won {self.wins[0]}, {b} won {self.wins[1]}; overtakes {self.overtakes[0]} / "
+                f"{self.overtakes[1]}; crashes caused {self.crashes[0]} / {self.crashes[1]}; "
+                f"finished {self.finished[0]} / {self.finished[1]}")
+
+
+def head_to_head(driver_a: Any, driver_b: Any, track: str, races: int = 20, laps: int = 3,
+                 seed: int = 0) -> HeadToHead:
+    """Race two drivers against each other ``races`` times, all at once as env copies.
+
+    Race pair k (copies 2k and 2k + 1) starts at a random point of the lap drawn from
+    ``seed``, with driver A on grid slot 0 in one copy and slot 1 in the other (every start in
+    both seat orders), ``head_to_head`` race rules (time penalties, not retirement) and
+    ``laps`` laps counted from that start.
+    """
+    from h2h_racing.policies import make_driver
+
+    drivers = [make_driver(d) if isinstance(d, str) else d for d in (driver_a, driver_b)]
+    rules = RaceRules(laps=laps, time_limit=60.0 * laps)
+    env_config = EnvConfig(track=track, num_cars=2, race_type="head_to_head", rules=rules)
+    loaded = load_track(track)
+    if races < 2 or races % 2:
+        raise ValueError(f"races must be an even number >= 2 (both seat orders), got {races}")
+    core = RaceCore(env_config, loaded, num_envs=races)
+    slots = np.stack([np.arange(races) % 2, 1 - np.arange(races) % 2], axis=1)
+    starts = np.repeat(np.random.default_rng(seed).uniform(0.0, loaded.length, races // 2), 2)
+    core.reset(seed=seed, slots=slots, start=starts)
+    for driver in drivers:
+        driver.reset(core)
+    mid = 0.5 * (env_config.max_speed + env_config.min_speed)
+    half = 0.5 * (env_config.max_speed - env_config.min_speed)
+    while not core.done.all():
+        action = np.stack([np.asarray(d.act(core, car), dtype=np.float64)
+                           for car, d in enumerate(drivers)], axis=1)
+        core.step(action[..., 0] * env_config.car.max_steer, mid + action[..., 1] * half)
+    winner = (core.rank == 1) & core.finished
+    names = tuple(getattr(d, "name", type(d).__name__) for d in drivers)
+    return HeadToHead(
+        drivers=(names[0], names[1]), track=loaded.name, races=races,
+        wins=(int(winner[:, 0].sum()), int(winner[:, 1].sum())),
+        overtakes=(int(core.overtakes[:, 0].sum()), int(core.overtakes[:, 1].sum())),
+        crashes=(int(core.crashes[:, 0].sum()), int(core.crashes[:, 1].sum())),
+        finished=(int(core.finished[:, 0].sum()), int(core.finished[:, 1].sum())))

@@ -34,3 +34,40 @@ class TestEvaluate:
         assert result.mean_lap_time == float("inf")
         assert "full_left" in result.row() and "0.0 %" in result.row()
         assert Evaluation.header().split()[0] == "driver"
+
+
+class TestHeadToHead:
+    """Two-car races in both seat orders from random starts."""
+
+    def test_racing_line_beats_pure_pursuit(self) -> None:
+        from h2h_racing.league.evaluate import head_to_head
+
+        result = head_to_head("racing_line", "pure_pursuit", "oval", races=4, laps=1)
+        # ~6 s against ~8.7 s a lap (policies/README): a sure win from either slot.
+        assert result.wins == (4, 0) and result.finished == (4, 4)
+        assert "racing_line won 4" in result.summary()
+
+    def test_races_must_pair_the_seat_orders(self) -> None:
+        import pytest
+
+        from h2h_racing.league.evaluate import head_to_head
+
+        with pytest.raises(ValueError, match="even"):
+            head_to_head("racing_line", "pure_pursuit", "oval", races=3)
+
+
+class TestStartPoints:
+    """RaceCore.reset(start=...) moves the race's start and finish line."""
+
+    def test_race_laps_count_from_the_start_point(self) -> None:
+        from h2h_racing.config import EnvConfig, RaceRules
+        from h2h_racing.core import RaceCore
+        from h2h_racing.track_io import load_track
+
+        track = load_track("oval")
+        core = RaceCore(EnvConfig(track="oval", num_cars=1, rules=RaceRules(laps=1)), track)
+        core.reset(seed=0, start=np.array([5.0]))
+        # The car sits 5 m round the lap; its lap ends when it is back there, after L metres.
+        assert core.distance[0, 0] == 5.0 and core.lap_origin[0, 0] == 5.0
+        start_xy = track.point_at(np.array([5.0]))[0]
+        assert np.allclose(core.position[0, 0], start_xy)
