@@ -19,13 +19,19 @@ from typing import Any, Literal
 
 os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl imports GitPython
 
+import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
 from h2h_racing.config import EnvConfig, RaceRules, RewardConfig  # noqa: E402
 from h2h_racing.league.vec_env import RacingVecEnv  # noqa: E402
+from h2h_racing.track import Track  # noqa: E402
+from h2h_racing.track_gen import random_track  # noqa: E402
 
 POLICY_FORMAT = "h2h-racing-policy/1"
 """Value of the ``format`` key of a policy file."""
+PROCEDURAL = "procedural"
+"""``TrainConfig.track`` value that trains on a new random track every ``track_every``
+iterations."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -63,7 +69,10 @@ class TrainConfig:
     """What to train, on what, against whom."""
 
     track: str = "speedway"
-    """Catalogue name, track file or ``random:<seed>``."""
+    """Catalogue name, track file, ``random:<seed>``, or ``"procedural"``: a new random track
+    (lap 20-45 m, width 0.76-1.07 m) every ``track_every`` iterations."""
+    track_every: int = 10
+    """Iterations between track changes with ``track="procedural"``."""
     observations: Literal["state", "camera"] = "state"
     """Actor input: the state vector, or the camera plus the state vector."""
     num_cars: int = 1
@@ -101,11 +110,13 @@ class TrainConfig:
 
     def env_config(self) -> EnvConfig:
         """The env the learners race in: DeepRacer's training rules (an infraction ends the
-        car's episode), one lap per episode."""
+        car's episode), one lap per episode (``track`` names the first track; a procedural
+        run starts on ``speedway`` and moves to random tracks)."""
         race_type = "time_trial" if self.num_cars == 1 else "head_to_head"
         camera = dataclasses.replace(EnvConfig().camera, width=self.camera_size[0],
                                      height=self.camera_size[1])
-        return EnvConfig(track=self.track, num_cars=self.num_cars, race_type=race_type,
+        track = "speedway" if self.track == PROCEDURAL else self.track
+        return EnvConfig(track=track, num_cars=self.num_cars, race_type=race_type,
                          rules=RaceRules.preset(race_type, "training"), reward=self.reward,
                          camera=camera)
 
@@ -161,8 +172,16 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
     runner = OnPolicyRunner(env, config.rsl_rl_dict(), log_dir=log_dir, device="cpu")
     start = time.perf_counter()
     done = 0
-    chunk = iterations if minutes is None else min(iterations, 10)
+    procedural = config.track == PROCEDURAL
+    chunk = iterations
+    if procedural:
+        chunk = config.track_every
+    elif minutes is not None:
+        chunk = 10
+    tracks = np.random.default_rng(config.seed + 1)
     while done < iterations:
+        if procedural:
+            env.set_track(random_training_track(tracks))
         step = min(chunk, iterations - done)
         runner.learn(step)
         # rsl-rl's learn() re-runs the last iteration index on the next call (its G3 gotcha).
@@ -174,6 +193,15 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
         save_policy(runner, config, Path(out) / "policy.pt",
                     training={"iterations": done, "seconds": time.perf_counter() - start})
     return runner
+
+
+def random_training_track(rng: np.random.Generator) -> Track:
+    """A random closed track for training: lap 20-45 m, width drawn in [0.76, 1.07] m (the
+    catalogue's range)."""
+    width = float(rng.uniform(0.76, 1.07))
+    spec = random_track(rng, width=width)
+    return Track(spec.centre, spec.width_left, spec.width_right, name=spec.name,
+                 description=spec.description, source="league.train.random_training_track")
 
 
 def save_policy(runner: Any, config: TrainConfig, path: str | Path,

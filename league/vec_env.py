@@ -168,6 +168,28 @@ class RacingVecEnv(VecEnv):
         return (self._obs, self._tensor(reward[:, :learners].reshape(-1), torch.float32),
                 self._tensor(dones.reshape(-1), torch.long), extras)
 
+    def set_track(self, track: Track) -> None:
+        """Race on ``track`` from now on: every copy restarts on it (same generator stream).
+
+        Call it between ``learn()`` calls (rsl-rl reads ``get_observations()`` at the start of
+        each); training on a new random track every few iterations teaches policies to drive
+        tracks they have never seen.
+        """
+        rng = self.core.rng
+        max_cycles = self.core.max_cycles
+        self.track = track
+        self.core = RaceCore(self.config, track, num_envs=self.core.num_envs)
+        self.core.rng = rng
+        self.core.max_cycles = max_cycles
+        self.core.reset(start=self._starts(self.core.num_envs))
+        if self.opponent is not None:
+            self.opponent.reset(self.core)
+        if self._camera is not None:
+            self._camera = CameraSensor(self.config.camera, track, self.config.car,
+                                        (self.config.obstacle_length, self.config.obstacle_width))
+            self._camera.reset(self.core)
+        self._obs = self._observe()
+
     # ---------------------------------------------------------------- helpers
     def _starts(self, count: int) -> npt.NDArray[np.float64] | None:
         if not self.random_starts:

@@ -116,3 +116,26 @@ class TestShippedPolicies:
         assert result.lap_completion == 1.0
         # Its card reports laps of 8.8-9.7 s; the racing-line driver's is about 8.6 s.
         assert result.mean_lap_time < 11.0
+
+
+class TestProcedural:
+    """track="procedural" trains on a new random track every track_every iterations."""
+
+    def test_tracks_change_between_chunks(self) -> None:
+        config = dataclasses.replace(SMALL, track="procedural", track_every=1)
+        runner = train(config, iterations=2)
+        track = runner.env.track
+        assert track.name.startswith("random-") and runner.env.core.track is track
+        # Widths are drawn in the catalogue's range [0.76, 1.07] m.
+        assert 0.76 <= float(track.width.min()) <= 1.07
+
+    def test_set_track_restarts_every_copy(self) -> None:
+        from h2h_racing.league.vec_env import RacingVecEnv
+        from h2h_racing.track_io import load_track
+
+        env = RacingVecEnv(SMALL.env_config(), num_envs=3)
+        for _ in range(5):
+            env.step(torch.zeros(3, 2))
+        env.set_track(load_track("kidney"))
+        assert env.core.track.name == "kidney" and all(env.core.steps == 0)
+        assert env.get_observations()["policy"].shape == (3, 33)
