@@ -185,7 +185,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     train = sub.add_parser("train", help="train a policy with rsl-rl PPO (needs h2h-racing[train])")
     train.add_argument("--track", default="speedway",
-                       help="catalogue name, track file or random:<seed>")
+                       help="catalogue name, track file, random:<seed>, or 'procedural' (a new "
+                            "random track every 10 iterations)")
     train.add_argument("--obs", default="state", choices=["state", "camera"])
     train.add_argument("--opponents", default="none",
                        help="'none' (alone), a scripted driver name or a policy.pt")
