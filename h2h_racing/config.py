@@ -536,6 +536,22 @@ class EnvConfig:
         return math.radians(self.min_steer_deg), math.radians(self.max_steer_deg)
 
     @property
+    def action_affine(self) -> tuple[float, float, float, float]:
+        """``(steer_mid, steer_half, speed_mid, speed_half)``: a continuous action ``a`` in
+        [-1, 1]^2 commands ``steer_mid + a0 * steer_half`` [rad] and
+        ``speed_mid + a1 * speed_half`` [m/s]."""
+        low, high = self.steer_range
+        return (0.5 * (high + low), 0.5 * (high - low), 0.5 * (self.max_speed + self.min_speed),
+                0.5 * (self.max_speed - self.min_speed))
+
+    def commands(self, actions: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """Clip continuous actions ``(..., 2)`` to [-1, 1] and map them to the car commands
+        ``(steer [rad], speed [m/s])``, each of shape ``(...)`` (see ``action_affine``)."""
+        steer_mid, steer_half, speed_mid, speed_half = self.action_affine
+        a = np.clip(np.asarray(actions, dtype=np.float64), -1.0, 1.0)
+        return steer_mid + a[..., 0] * steer_half, speed_mid + a[..., 1] * speed_half
+
+    @property
     def obstacle_count(self) -> int:
         """Number of obstacles in force (``num_obstacles`` or the race type's default)."""
         if self.num_obstacles is not None:

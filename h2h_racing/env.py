@@ -233,11 +233,8 @@ class RacingEnv(ParallelEnv):
         # One space object per agent, built once: PettingZoo's tests require identity.
         self._observation_spaces = {a: obs_space for a in self.possible_agents}
         self._action_spaces = {a: act_space for a in self.possible_agents}
-        self._speed_scale = 0.5 * (config.max_speed - config.min_speed)
-        self._speed_mid = 0.5 * (config.max_speed + config.min_speed)
-        steer_low, steer_high = config.steer_range
-        self._steer_scale = 0.5 * (steer_high - steer_low)
-        self._steer_mid = 0.5 * (steer_high + steer_low)
+        self._steer_mid, self._steer_scale, self._speed_mid, self._speed_scale = (
+            config.action_affine)
         self._chosen: list[int] = []
         self._deepracer: DeepRacerReward | None = None
         self._params: ParamsBuilder | None = None

@@ -72,11 +72,8 @@ def evaluate(driver: Any, track: str, episodes: int = 20, seed: int = 0,
     core = RaceCore(env_config, loaded, num_envs=episodes)
     core.reset(seed=seed, start=np.arange(episodes) * (loaded.length / episodes))
     driver.reset(core)
-    mid = 0.5 * (env_config.max_speed + env_config.min_speed)
-    half = 0.5 * (env_config.max_speed - env_config.min_speed)
     while not core.done.all():
-        action = np.asarray(driver.act(core, 0), dtype=np.float64)
-        core.step(action[:, 0:1] * env_config.car.max_steer, mid + action[:, 1:2] * half)
+        core.step(*env_config.commands(np.asarray(driver.act(core, 0))[:, None, :]))
     laps = [t for env in range(episodes) for t in core.lap_times[env][0][:1]]
     return Evaluation(
         driver=getattr(driver, "name", type(driver).__name__), track=loaded.name,
@@ -134,12 +131,9 @@ def head_to_head(driver_a: Any, driver_b: Any, track: str, races: int = 20, laps
     core.reset(seed=seed, slots=slots, start=starts)
     for driver in drivers:
         driver.reset(core)
-    mid = 0.5 * (env_config.max_speed + env_config.min_speed)
-    half = 0.5 * (env_config.max_speed - env_config.min_speed)
     while not core.done.all():
-        action = np.stack([np.asarray(d.act(core, car), dtype=np.float64)
-                           for car, d in enumerate(drivers)], axis=1)
-        core.step(action[..., 0] * env_config.car.max_steer, mid + action[..., 1] * half)
+        core.step(*env_config.commands(np.stack([d.act(core, car)
+                                                 for car, d in enumerate(drivers)], axis=1)))
     winner = (core.rank == 1) & core.finished
     names = tuple(getattr(d, "name", type(d).__name__) for d in drivers)
     return HeadToHead(

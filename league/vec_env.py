@@ -108,8 +108,6 @@ class RacingVecEnv(VecEnv):
 
             opponent = make_driver(opponent)
         self.opponent = opponent
-        self._speed_mid = 0.5 * (config.max_speed + config.min_speed)
-        self._speed_half = 0.5 * (config.max_speed - config.min_speed)
         self.random_starts = random_starts
         self.core.seed(seed)
         self.core.reset(start=self._starts(num_envs))
@@ -141,11 +139,10 @@ class RacingVecEnv(VecEnv):
         if not np.isfinite(values).all():
             raise ValueError("actions contain NaN or inf")
         commands = np.empty((e, n, 2))
-        commands[:, :learners] = np.clip(values, -1.0, 1.0)
+        commands[:, :learners] = values
         for car in range(learners, n):
-            commands[:, car] = np.clip(self.opponent.act(core, car), -1.0, 1.0)
-        steer = commands[..., 0] * cfg.car.max_steer
-        speed = self._speed_mid + commands[..., 1] * self._speed_half
+            commands[:, car] = self.opponent.act(core, car)
+        steer, speed = cfg.commands(commands)
         racing = core.racing
         events = core.step(steer, speed)
         terms, reward = rewards.reward_terms(self._weights, events, core.speed, racing)

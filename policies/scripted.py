@@ -62,9 +62,9 @@ class Driver(Protocol):
 def to_action(core: RaceCore, steer_rad: FloatArray, speed_mps: FloatArray) -> ActionArray:
     """Map a steering angle and a speed to the env's continuous action, with clipping.
 
-    The inverse of ``RacingEnv._parse_actions``: ``steer = delta / car.max_steer`` and
-    ``speed = (v - mid) / half_range`` with ``mid, half_range`` the centre and half-width of
-    ``[config.min_speed, config.max_speed]``, both clipped to [-1, 1].
+    The inverse of ``EnvConfig.commands``: ``steer = (delta - steer_mid) / steer_half`` and
+    ``speed = (v - speed_mid) / speed_half`` (``EnvConfig.action_affine``), both clipped to
+    [-1, 1].
 
     Args:
         core: The simulation core (for the car and speed limits).
@@ -74,11 +74,9 @@ def to_action(core: RaceCore, steer_rad: FloatArray, speed_mps: FloatArray) -> A
     Returns:
         Actions, shape (E, 2), float32.
     """
-    cfg = core.config
-    mid = 0.5 * (cfg.max_speed + cfg.min_speed)
-    half = 0.5 * (cfg.max_speed - cfg.min_speed)
-    steer = np.asarray(steer_rad, dtype=np.float64) / cfg.car.max_steer
-    speed = (np.asarray(speed_mps, dtype=np.float64) - mid) / half
+    steer_mid, steer_half, speed_mid, speed_half = core.config.action_affine
+    steer = (np.asarray(steer_rad, dtype=np.float64) - steer_mid) / steer_half
+    speed = (np.asarray(speed_mps, dtype=np.float64) - speed_mid) / speed_half
     steer, speed = np.broadcast_arrays(steer, speed)
     out = np.stack([steer, speed], axis=-1)
     return np.clip(out, -1.0, 1.0).astype(np.float32)
@@ -417,16 +415,12 @@ def drive(core: RaceCore, drivers: Sequence[Driver], max_steps: int | None = Non
     """
     if len(drivers) != core.num_cars:
         raise ValueError(f"expected one driver per car ({core.num_cars}), got {len(drivers)}")
-    cfg = core.config
-    mid = 0.5 * (cfg.max_speed + cfg.min_speed)
-    half = 0.5 * (cfg.max_speed - cfg.min_speed)
     for driver in drivers:
         driver.reset(core)
     steps = 0
     while not core.done.all() and (max_steps is None or steps < max_steps):
         actions = np.stack([d.act(core, i) for i, d in enumerate(drivers)], axis=1)
-        actions = np.clip(actions.astype(np.float64), -1.0, 1.0)
-        core.step(actions[..., 0] * cfg.car.max_steer, mid + half * actions[..., 1])
+        core.step(*core.config.commands(actions))
         steps += 1
     return steps
 

@@ -175,3 +175,25 @@ class TestEnvIntegration:
                   max_steps=50)
             outs.append(core.position.copy())
         np.testing.assert_array_equal(outs[0], outs[1])
+
+
+class TestActionMapping:
+    """One map from continuous actions to car commands (EnvConfig.commands), inverted by to_action."""
+
+    def test_commands_by_hand_with_a_custom_steering_range(self) -> None:
+        import math
+
+        from h2h_racing.config import EnvConfig
+
+        cfg = EnvConfig(min_steer_deg=-10.0, max_steer_deg=30.0, min_speed=1.0, max_speed=3.0)
+        # Steering: mid 10 deg, half 20 deg; speed: mid 2 m/s, half 1 m/s. a = (0.5, -1) ->
+        # 10 + 0.5 * 20 = 20 deg and 2 - 1 = 1 m/s; (2.0, 5.0) is clipped to (1, 1) -> 30 deg, 3 m/s.
+        steer, speed = cfg.commands(np.array([[0.5, -1.0], [2.0, 5.0]]))
+        assert np.allclose(steer, [math.radians(20.0), math.radians(30.0)])
+        assert np.allclose(speed, [1.0, 3.0])
+
+    def test_to_action_inverts_commands(self) -> None:
+        core = race_core("oval", 1, min_steer_deg=-20.0, max_steer_deg=25.0)
+        actions = np.array([[-0.6, 0.3]], dtype=np.float32)
+        steer, speed = core.config.commands(actions)
+        assert np.allclose(to_action(core, steer, speed), actions, atol=1e-6)
