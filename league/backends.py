@@ -1,0 +1,159 @@
+"""Where league work runs: this process, local worker processes, or a Ray cluster.
+
+A backend has one method, ``map(fn, jobs)``, that yields ``(job, fn(job))`` pairs as jobs
+finish (in any order). ``fn`` must be a module-level function and jobs picklable. The caller
+stores each result as it arrives, so whatever finished before a crash is kept.
+
+A worker that dies (killed, out of memory) loses no job: its jobs are run again, up to
+``max_retries`` times, and because every result is stored under its match key, a job that
+ran twice is still counted once.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import multiprocessing
+import os
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures.process import BrokenProcessPool
+from typing import Any, TypeVar
+
+J = TypeVar("J")
+R = TypeVar("R")
+
+BACKENDS = ("inprocess", "local", "ray")
+
+
+class InProcessBackend:
+    """Run jobs one after another in this process (tests, debugging, one-core machines)."""
+
+    def map(self, fn: Callable[[J], R], jobs: Sequence[J]) -> Iterator[tuple[J, R]]:
+        """Yield ``(job, fn(job))`` in order."""
+        for job in jobs:
+            yield job, fn(job)
+
+    def close(self) -> None:
+        """Nothing to release."""
+
+
+class LocalBackend:
+    """Run jobs in ``workers`` local processes.
+
+    Workers are started with ``spawn`` (a fresh interpreter: no inherited torch/OpenMP
+    threads, which ``fork`` can deadlock on).
+
+    Args:
+        workers: Worker processes; None uses every core.
+        max_retries: Times a job is started again after its worker died.
+    """
+
+    def __init__(self, workers: int | None = None, max_retries: int = 2) -> None:
+        if workers is not None and workers < 1:
+            raise ValueError(f"workers must be >= 1, got {workers}")
+        self.workers = workers or os.cpu_count() or 1
+        self.max_retries = max_retries
+        self._pool: cf.ProcessPoolExecutor | None = None
+
+    def map(self, fn: Callable[[J], R], jobs: Sequence[J]) -> Iterator[tuple[J, R]]:
+        """Yield ``(job, fn(job))`` as jobs finish.
+
+        The worker processes stay up between calls (until ``close``), so state a job function
+        caches in its process (a league learner's runner) is found again by later jobs.
+        """
+        pending = list(range(len(jobs)))
+        attempts = [0] * len(jobs)
+        while pending:
+            if self._pool is None:
+                self._pool = cf.ProcessPoolExecutor(
+                    self.workers, mp_context=multiprocessing.get_context("spawn"))
+            futures = {self._pool.submit(fn, jobs[i]): i for i in pending}
+            broken = False
+            for future in cf.as_completed(futures):
+                index = futures[future]
+                try:
+                    result = future.result()
+                except BrokenProcessPool:
+                    broken = True
+                    continue
+                pending.remove(index)
+                yield jobs[index], result
+            if broken:
+                self._pool.shutdown(wait=False, cancel_futures=True)
+                self._pool = None
+                for index in pending:
+                    attempts[index] += 1
+                    if attempts[index] > self.max_retries:
+                        raise RuntimeError(
+                            f"job {index} lost its worker {attempts[index]} times; giving up "
+                            f"(max_retries={self.max_retries}): {jobs[index]!r}")
+
+    def close(self) -> None:
+        """Stop the worker processes."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+
+
+class RayBackend:
+    """Run jobs as Ray tasks (one CPU-fraction each) on a local Ray or a cluster.
+
+    Args:
+        address: ``ray.init`` address (``"auto"`` or ``"ray://host:port"``); None starts a
+            local Ray.
+        num_cpus: CPUs of a local Ray (None: all).
+        cpus_per_task: Logical CPUs a job reserves. Fractional so that a long-lived actor
+            elsewhere cannot starve the tasks (Ray reserves an actor's CPUs for its life).
+        timeout: Seconds to wait for the next job to finish before giving up.
+        max_retries: Times Ray restarts a task whose worker died.
+    """
+
+    def __init__(self, address: str | None = None, num_cpus: int | None = None,
+                 cpus_per_task: float = 0.5, timeout: float = 1800.0,
+                 max_retries: int = 3) -> None:
+        try:
+            import ray
+        except ImportError:
+            raise ImportError("the ray backend needs Ray: pip install 'h2h-racing[ray]'") \
+                from None
+        os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+        self._ray = ray
+        self._started = False
+        if not ray.is_initialized():
+            kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False}
+            if address is None:
+                kwargs["num_cpus"] = num_cpus
+            ray.init(address=address, **kwargs)
+            self._started = True
+        self.cpus_per_task = cpus_per_task
+        self.timeout = timeout
+        self.max_retries = max_retries
+
+    def map(self, fn: Callable[[J], R], jobs: Sequence[J]) -> Iterator[tuple[J, R]]:
+        """Yield ``(job, fn(job))`` as Ray tasks finish."""
+        ray = self._ray
+        task = ray.remote(num_cpus=self.cpus_per_task, max_retries=self.max_retries)(fn)
+        refs = {task.remote(job): job for job in jobs}
+        while refs:
+            ready, _ = ray.wait(list(refs), num_returns=1, timeout=self.timeout)
+            if not ready:
+                raise TimeoutError(f"no Ray task finished within {self.timeout} s; "
+                                   f"{len(refs)} jobs still pending")
+            ref = ready[0]
+            yield refs.pop(ref), ray.get(ref, timeout=self.timeout)
+
+    def close(self) -> None:
+        """Shut down the local Ray this backend started."""
+        if self._started:
+            self._ray.shutdown()
+            self._started = False
+
+
+def make_backend(name: str, workers: int | None = None, address: str | None = None) -> Any:
+    """Build a backend by name (``inprocess``, ``local``, ``ray``)."""
+    if name == "inprocess":
+        return InProcessBackend()
+    if name == "local":
+        return LocalBackend(workers)
+    if name == "ray":
+        return RayBackend(address=address, num_cpus=workers)
+    raise ValueError(f"backend must be one of {BACKENDS}, got {name!r}")
