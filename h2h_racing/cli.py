@@ -8,6 +8,8 @@
     h2h-racing tracks list
     h2h-racing tracks show NAME [--out NAME.png]
     h2h-racing tracks import FILE [--name NAME] [--scale S | --scale L,W] [--reverse] [--out F]
+    h2h-racing tournament --players A,B,C [--tracks T1,T2] [--races 2] [--backend local|ray]
+    h2h-racing league train --config league/NAME.toml | table | plot  (see league/cli.py)
 """
 
 from __future__ import annotations
@@ -238,6 +240,10 @@ def build_parser() -> argparse.ArgumentParser:
     imp.add_argument("--reverse", action="store_true", help="drive the track the other way")
     imp.add_argument("--out", default=None, help="output .json (default: NAME.json)")
     imp.set_defaults(func=_cmd_tracks_import)
+
+    from h2h_racing.league.cli import add_commands
+
+    add_commands(sub)
     return parser
 
 

@@ -235,7 +235,9 @@ def run_job(job: Job) -> list[MatchRecord]:
     config = EnvConfig(track=job.track, num_cars=num, race_type="head_to_head", rules=rules)
     core = RaceCore(config, track, num_envs=len(job.keys))
     core.reset(seed=job.seed, slots=np.asarray(job.slots), start=np.asarray(job.starts))
-    drivers = [make_driver(d) for d in job.drivers]
+    # The random driver draws from its own generator, seeded per job and car.
+    drivers = [make_driver(d, rng=np.random.default_rng([job.seed, car])) if d == "random"
+               else make_driver(d) for car, d in enumerate(job.drivers)]
     for driver in drivers:
         driver.reset(core)
     steps = 0

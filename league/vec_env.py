@@ -165,6 +165,16 @@ class RacingVecEnv(VecEnv):
         return (self._obs, self._tensor(reward[:, :learners].reshape(-1), torch.float32),
                 self._tensor(dones.reshape(-1), torch.long), extras)
 
+    def set_opponent(self, opponent: str | Any) -> None:
+        """Drive the non-learner cars with ``opponent`` from now on (a driver name or object;
+        a league changes its learners' opponents between ``learn()`` calls)."""
+        if isinstance(opponent, str):
+            from h2h_racing.policies import make_driver
+
+            opponent = make_driver(opponent)
+        self.opponent = opponent
+        self.opponent.reset(self.core)
+
     def set_track(self, track: Track) -> None:
         """Race on ``track`` from now on: every copy restarts on it (same generator stream).
 

@@ -1,0 +1,222 @@
+"""League commands of ``h2h-racing``.
+
+    h2h-racing tournament --players A,B,C --tracks T1,T2 [--races 2] [--laps 2] [--field-races N]
+                          [--schedule round_robin|swiss] [--league FILE] [--name NAME]
+                          [--backend inprocess|local|ray] [--workers N] [--address ADDR]
+    h2h-racing league train --config league/NAME.toml [--out runs/leagues/NAME] [--minutes M]
+                          [--backend ...]
+    h2h-racing league table --league FILE [--context PREFIX]
+    h2h-racing league plot --league FILE [--out DIR]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+DEFAULT_LEAGUE = "runs/league.sqlite"
+
+
+def _names(text: str) -> tuple[str, ...]:
+    names = tuple(p.strip() for p in text.split(",") if p.strip())
+    if not names:
+        raise argparse.ArgumentTypeError(f"expected comma-separated names, got {text!r}")
+    return names
+
+
+def _backend(args: argparse.Namespace) -> Any:
+    from h2h_racing.league.backends import make_backend
+
+    return make_backend(args.backend, workers=args.workers, address=args.address)
+
+
+def _add_backend_args(parser: argparse.ArgumentParser, default: str) -> None:
+    parser.add_argument("--backend", default=default, choices=["inprocess", "local", "ray"],
+                        help="where races and learners run: this process, local worker "
+                             f"processes, or Ray (needs h2h-racing[ray]); default {default}")
+    parser.add_argument("--workers", type=int, default=None,
+                        help="worker processes (local) or CPUs of a local Ray (default: all)")
+    parser.add_argument("--address", default=None,
+                        help="Ray cluster address for --backend ray (default: a local Ray)")
+
+
+class _Progress:
+    """One status line on stderr: races done / all, elapsed time."""
+
+    def __init__(self) -> None:
+        self.start = time.perf_counter()
+
+    def __call__(self, done: int, total: int) -> None:
+        print(f"\r{done}/{total} races  {time.perf_counter() - self.start:6.1f} s",
+              end="", file=sys.stderr, flush=True)
+
+
+def _cmd_tournament(args: argparse.Namespace) -> int:
+    from h2h_racing.league.store import LeagueStore
+    from h2h_racing.league.tournament import TournamentConfig, run_tournament
+
+    config = TournamentConfig(players=args.players, tracks=args.tracks, races=args.races,
+                              laps=args.laps, field_races=args.field_races,
+                              schedule=args.schedule, rounds=args.rounds, seed=args.seed,
+                              name=args.name, anchor=args.anchor)
+    backend = _backend(args)
+    start = time.perf_counter()
+    try:
+        with LeagueStore(args.league) as store:
+            report = run_tournament(config, store, backend, progress=_Progress())
+    finally:
+        backend.close()
+    print(file=sys.stderr)
+    print(f"tournament {config.name!r}: {report.ran} races run, {report.skipped} already in "
+          f"{args.league}, {time.perf_counter() - start:.1f} s")
+    print(report.table())
+    return 0
+
+
+def _cmd_league_train(args: argparse.Namespace) -> int:
+    import dataclasses
+
+    from h2h_racing.league.selfplay import League, LeagueConfig
+
+    config = LeagueConfig.from_toml(args.config)
+    if args.minutes is not None:
+        config = dataclasses.replace(config, minutes=args.minutes)
+    if args.rounds is not None:
+        config = dataclasses.replace(config, max_rounds=args.rounds)
+    out = Path(args.out or Path("runs") / "leagues" / config.name)
+    league = League(config, out, backend=_backend(args))
+    try:
+        league.run()
+        print(f"league {config.name!r} in {out}: {league.league_steps() / 1e6:.2f} M steps, "
+              f"{len(league.snapshots())} snapshots")
+        from h2h_racing.league.ratings import format_standings
+
+        print(format_standings(league.standings()))
+    finally:
+        league.close()
+    return 0
+
+
+def _cmd_league_table(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from h2h_racing.league.ratings import format_standings, standings
+    from h2h_racing.league.store import LeagueStore
+
+    if not Path(args.league).is_file():
+        raise FileNotFoundError(f"league file not found: {args.league}")
+    with LeagueStore(args.league) as store:
+        races = store.races(context_prefix=args.context)
+        if not races:
+            raise ValueError(f"{args.league} has no finished matches"
+                             + (f" with context {args.context!r}" if args.context else ""))
+        players = {p for race in races for p in race}
+        anchor = args.anchor if args.anchor in players else None
+        rows = standings(races, anchor=anchor, n_boot=args.boot, rng=np.random.default_rng(0))
+    print(f"{len(races)} races" + (f", anchor {anchor} = 1000" if anchor else ""))
+    print(format_standings(rows))
+    return 0
+
+
+def _cmd_league_plot(args: argparse.Namespace) -> int:
+    from h2h_racing.league.plots import plot_ratings, plot_win_matrix
+    from h2h_racing.league.ratings import pairwise
+    from h2h_racing.league.store import LeagueStore
+
+    if not Path(args.league).is_file():
+        raise FileNotFoundError(f"league file not found: {args.league}")
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    with LeagueStore(args.league) as store:
+        history = store.rating_history("bradley_terry")
+        players = {p.name: p for p in store.players()}
+        races = store.races(context_prefix=args.context)
+    written = []
+    if history:
+        path = out / "ratings.png"
+        plot_ratings(rating_series(history, players), path)
+        written.append(path)
+    if races:
+        players, wins, games = pairwise(races)
+        with_games = games > 0
+        rate = wins / games.clip(min=1)
+        rate[~with_games] = float("nan")
+        path = out / "win_matrix.png"
+        plot_win_matrix(players, rate, games, path)
+        written.append(path)
+    if not written:
+        raise ValueError(f"{args.league} has no ratings or matches to plot")
+    for path in written:
+        print(path)
+    return 0
+
+
+def rating_series(history: dict[str, list[tuple[float, float, float, float]]],
+                  players: dict[str, Any]) -> dict[str, list[tuple[float, float, float, float]]]:
+    """Rating over training time, one line per learner lineage.
+
+    Each snapshot contributes its latest fitted rating at the training steps it was frozen at
+    (``Player.training_steps``), on the line of its parent learner; players without a parent
+    (anchors, tournament entrants) are flat lines across the plotted range.
+    """
+    latest = {name: rows[-1] for name, rows in history.items()}
+    series: dict[str, list[tuple[float, float, float, float]]] = {}
+    for name, (_, rating, low, high) in latest.items():
+        player = players.get(name)
+        if player is not None and player.parent:
+            series.setdefault(player.parent, []).append(
+                (float(player.training_steps), rating, low, high))
+    end = max((x for rows in series.values() for x, *_ in rows), default=1.0)
+    for name, (_, rating, low, high) in latest.items():
+        player = players.get(name)
+        if player is None or not player.parent:
+            series[name] = [(0.0, rating, low, high), (end, rating, low, high)]
+    return {name: sorted(rows) for name, rows in series.items()}
+
+
+def add_commands(sub: Any) -> None:
+    """Add ``tournament`` and ``league`` to the ``h2h-racing`` sub-command parsers."""
+    tour = sub.add_parser("tournament", help="round robin or Swiss tournament; prints ratings")
+    tour.add_argument("--players", type=_names, required=True,
+                      help="comma-separated drivers, shipped policies or policy.pt files")
+    tour.add_argument("--tracks", type=_names, default=("speedway",),
+                      help="comma-separated tracks")
+    tour.add_argument("--races", type=int, default=2,
+                      help="seeds per pairing and track (each raced in both seat orders)")
+    tour.add_argument("--laps", type=int, default=2)
+    tour.add_argument("--field-races", type=int, default=0,
+                      help="seeds of races with every player on the grid (every rotation)")
+    tour.add_argument("--schedule", default="round_robin", choices=["round_robin", "swiss"])
+    tour.add_argument("--rounds", type=int, default=0, help="Swiss rounds (0: log2(P) + 1)")
+    tour.add_argument("--seed", type=int, default=0)
+    tour.add_argument("--name", default="default", help="tournament name in the league file")
+    tour.add_argument("--anchor", default=None,
+                      help="player rated 1000 (default: racing_line when it plays)")
+    tour.add_argument("--league", default=DEFAULT_LEAGUE, help="league file (SQLite)")
+    _add_backend_args(tour, "local")
+    tour.set_defaults(func=_cmd_tournament)
+
+    league = sub.add_parser("league", help="self-play league: train, table, plot")
+    lsub = league.add_subparsers(dest="league_command", required=True)
+    train = lsub.add_parser("train", help="run a self-play league (needs h2h-racing[train])")
+    train.add_argument("--config", required=True, help="league config, e.g. league/speedway.toml")
+    train.add_argument("--out", default=None, help="league folder (default runs/leagues/NAME)")
+    train.add_argument("--minutes", type=float, default=None, help="override the time budget")
+    train.add_argument("--rounds", type=int, default=None, help="override the round cap")
+    _add_backend_args(train, "local")
+    train.set_defaults(func=_cmd_league_train)
+    table = lsub.add_parser("table", help="print the standings of a league file")
+    table.add_argument("--league", default=DEFAULT_LEAGUE)
+    table.add_argument("--context", default=None,
+                       help="only matches whose context starts with this (e.g. tournament:x)")
+    table.add_argument("--anchor", default="racing_line", help="player rated 1000")
+    table.add_argument("--boot", type=int, default=200, help="bootstrap resamples")
+    table.set_defaults(func=_cmd_league_table)
+    plot = lsub.add_parser("plot", help="PNGs of ratings over training and the win matrix")
+    plot.add_argument("--league", default=DEFAULT_LEAGUE)
+    plot.add_argument("--context", default=None, help="matches of the win matrix (prefix)")
+    plot.add_argument("--out", default="plots", help="output folder")
+    plot.set_defaults(func=_cmd_league_plot)

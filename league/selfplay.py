@@ -1,0 +1,557 @@
+"""Self-play league training: AlphaStar's league, scaled down to one small machine.
+
+Learners (``main``, ``main_exploiter``, ``league_exploiter``) are rsl-rl PPO runners, each on
+its own batched ``RacingVecEnv`` with one learner car and one opponent car per env copy. A
+*round* is:
+
+1. **Matchmaking**: for each learner, the opponent of each env copy is drawn by its role's rule
+   (``league.pfsp.choose_opponents``: prioritised fictitious self-play over the decayed payoff
+   table, pure self-play against the learner's own frozen copy of the round's start, the
+   current main). Scripted drivers stay in the pool as fixed anchors.
+2. **Training**: every learner runs ``iterations_per_round`` PPO iterations (in parallel on
+   the backend's workers) and saves ``learners/<name>/latest.pt`` and its runner state.
+3. **Evaluation**: each learner races every pool member (and the other learners) in 2-car races
+   under race rules, both seat orders on the same seeds; every race is a stored match and
+   updates the payoff table.
+4. **Snapshots**: a learner whose worst decayed win rate against the pool exceeds the
+   threshold after ``snapshot_min_rounds`` rounds (forced after ``snapshot_max_rounds``) is
+   frozen into a new player; the main exploiter then restarts from the initial weights, a
+   league exploiter does so with probability 0.25 (AlphaStar's rules).
+5. **Ratings**: each new snapshot plays placement races against every frozen player (anchors
+   and earlier snapshots); a Bradley-Terry fit over all placement races, anchored to
+   ``racing_line`` at 1000, is appended to the rating history at the league's step count.
+
+Everything lives in the league folder: ``league.sqlite`` (players, matches, ratings), the
+learners' state and the snapshots. Killing the run at any moment and starting it again
+continues from the last finished round: matches are keyed by round, so none is counted twice.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import shutil
+import sys
+import time
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+
+from h2h_racing.league.store import LeagueStore, Player, file_sha256, player_for
+from h2h_racing.league.tournament import PAIR_ORDERS, Job, make_job, run_job
+
+ROLES = ("main", "main_exploiter", "league_exploiter")
+"""Learner roles (AlphaStar's)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class LearnerSpec:
+    """One learner of the league."""
+
+    name: str
+    role: str = "main"
+    """One of ``ROLES``."""
+
+    def __post_init__(self) -> None:
+        if self.role not in ROLES:
+            raise ValueError(f"learner {self.name!r}: role must be one of {ROLES}, got "
+                             f"{self.role!r}")
+        if not self.name or ":" in self.name or "/" in self.name:
+            raise ValueError(f"learner name must be non-empty without ':' or '/', got "
+                             f"{self.name!r}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class LeagueConfig:
+    """A league run (``league/*.toml`` files hold these fields; unknown keys are refused)."""
+
+    name: str = "league"
+    """League name (match keys and the store's meta)."""
+    tracks: tuple[str, ...] = ("speedway",)
+    """Tracks the league trains and evaluates on, in turn by round."""
+    learners: tuple[LearnerSpec, ...] = (
+        LearnerSpec(name="main", role="main"),
+        LearnerSpec(name="main_exploiter", role="main_exploiter"),
+        LearnerSpec(name="league_exploiter", role="league_exploiter"))
+    """The learners; at least one ``main``."""
+    anchors: tuple[str, ...] = ("racing_line", "pure_pursuit", "blocker")
+    """Scripted drivers (or shipped policies) that stay in the pool as fixed anchors."""
+    rating_anchor: str = "racing_line"
+    """Player held at 1000 in the ratings (must be one of ``anchors``)."""
+    init: str | None = "ppo_speedway_h2h"
+    """Policy every learner starts from and exploiters reset to (a shipped policy name or a
+    policy.pt; AlphaStar starts from supervised weights); None trains from scratch."""
+    minutes: float = 30.0
+    """Wall-clock budget; the round that crosses it is the last."""
+    max_rounds: int = 1000
+    """Round cap."""
+    iterations_per_round: int = 20
+    """PPO iterations of each learner per round."""
+    num_envs: int = 128
+    """Env copies per learner."""
+    num_steps_per_env: int = 32
+    """Rollout length per PPO iteration [steps]."""
+    reward: dict[str, float] = field(default_factory=lambda: {
+        "progress": 1.0, "off_track": -5.0, "crash": -5.0, "overtake": 1.0})
+    """Reward weights (``RewardConfig`` fields): progress, at-fault crashes penalised,
+    overtakes rewarded."""
+    learning_rate: float = 3e-4
+    """PPO learning rate (lower than from-scratch training: learners start from a policy)."""
+    entropy_coef: float = 0.003
+    """PPO entropy bonus."""
+    init_std: float = 0.3
+    """Policy standard deviation at the start (and after an exploiter reset)."""
+    eval_races: int = 2
+    """Seeds per (learner, opponent) evaluation pairing per round, each in both seat orders."""
+    placement_races: int = 3
+    """Seeds per (snapshot, frozen player) placement pairing, each in both seat orders."""
+    laps: int = 2
+    """Laps of evaluation and placement races."""
+    snapshot_threshold: float = 0.7
+    """Snapshot when the learner's worst decayed win rate against the pool exceeds this."""
+    snapshot_min_rounds: int = 2
+    """Rounds since a learner's last snapshot before the win-rate rule applies."""
+    snapshot_max_rounds: int = 4
+    """Rounds after which a snapshot is taken regardless (AlphaStar's forced checkpoint)."""
+    payoff_decay: float = 0.99
+    """Decay of the payoff table's counts per update (AlphaStar)."""
+    seed: int = 0
+    """Seeds matchmaking, training and races."""
+
+    def __post_init__(self) -> None:
+        if not self.learners or not any(s.role == "main" for s in self.learners):
+            raise ValueError("a league needs at least one learner with role 'main'")
+        names = [s.name for s in self.learners]
+        if len(set(names)) != len(names):
+            raise ValueError(f"learner names must be distinct, got {names}")
+        if set(names) & set(self.anchors):
+            raise ValueError(f"learner names {sorted(set(names) & set(self.anchors))} clash "
+                             f"with anchors")
+        if self.rating_anchor not in self.anchors:
+            raise ValueError(f"rating_anchor {self.rating_anchor!r} must be one of the anchors "
+                             f"{list(self.anchors)}")
+        if not self.tracks:
+            raise ValueError("give at least one track")
+        for name in ("iterations_per_round", "num_envs", "num_steps_per_env", "eval_races",
+                     "placement_races", "laps", "snapshot_min_rounds", "max_rounds"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"LeagueConfig.{name} must be >= 1, got {getattr(self, name)}")
+        if self.snapshot_max_rounds < self.snapshot_min_rounds:
+            raise ValueError("snapshot_max_rounds must be >= snapshot_min_rounds")
+        if not 0.0 < self.payoff_decay <= 1.0 or not 0.0 <= self.snapshot_threshold <= 1.0:
+            raise ValueError("payoff_decay must be in (0, 1] and snapshot_threshold in [0, 1]")
+        if self.minutes <= 0:
+            raise ValueError(f"LeagueConfig.minutes must be > 0, got {self.minutes}")
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], source: str = "league config") -> LeagueConfig:
+        """Build from plain data (a parsed TOML file); unknown keys raise ``ValueError``."""
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise ValueError(f"{source}: unknown keys {unknown}; allowed keys are {sorted(known)}")
+        values = dict(data)
+        if "learners" in values:
+            learners = []
+            for i, entry in enumerate(values["learners"]):
+                extra = sorted(set(entry) - {"name", "role"})
+                if extra:
+                    raise ValueError(f"{source}: learners[{i}] has unknown keys {extra}; "
+                                     f"allowed: name, role")
+                learners.append(LearnerSpec(**entry))
+            values["learners"] = tuple(learners)
+        for key in ("tracks", "anchors"):
+            if key in values:
+                values[key] = tuple(values[key])
+        try:
+            return cls(**values)
+        except TypeError as err:
+            raise ValueError(f"{source}: {err}") from None
+
+    @classmethod
+    def from_toml(cls, path: str | Path) -> LeagueConfig:
+        """Read a league config file."""
+        with open(path, "rb") as handle:
+            try:
+                data = tomllib.load(handle)
+            except tomllib.TOMLDecodeError as err:
+                raise ValueError(f"{path}: not valid TOML: {err}") from None
+        return cls.from_dict(data, source=str(path))
+
+    def train_config(self, seed: int) -> Any:
+        """The ``TrainConfig`` of every learner: two cars, one learner, race tracks."""
+        from h2h_racing.config import RewardConfig
+        from h2h_racing.league.train import PPOConfig, TrainConfig
+
+        return TrainConfig(track=self.tracks[0], num_cars=2, learners=1, opponent=None,
+                           num_envs=self.num_envs, num_steps_per_env=self.num_steps_per_env,
+                           init_std=self.init_std, reward=RewardConfig(**self.reward), seed=seed,
+                           ppo=PPOConfig(learning_rate=self.learning_rate,
+                                         entropy_coef=self.entropy_coef))
+
+
+# ------------------------------------------------------------------ learner jobs (workers)
+
+
+@dataclass(frozen=True)
+class TrainJob:
+    """One round of PPO for one learner (runs in a worker process)."""
+
+    learner: str
+    folder: str
+    """The learner's folder: ``runner.pt`` (rsl-rl state) and ``latest.pt`` (policy file)."""
+    config: LeagueConfig
+    round: int
+    track: str
+    opponents: tuple[str, ...]
+    """Driver of the opponent car of each env copy (``make_driver`` names or policy paths)."""
+    reset: bool
+    """Start from the initial weights (an exploiter reset) instead of the saved state."""
+    seed: int
+
+
+_RUNNERS: dict[str, tuple[int, Any]] = {}
+"""Worker-process cache: learner -> (round it last finished, runner). A worker that trained a
+learner last round continues with its runner in memory; any other worker rebuilds it from the
+learner's ``runner.pt``. Module-level on purpose: it is the state of one worker process."""
+
+
+class PoolOpponent:
+    """Drives the opponent car of each env copy with that copy's driver.
+
+    Args:
+        specs: Driver of each env copy (``make_driver`` argument), length E.
+        seed: Seeds the ``random`` driver, if it plays.
+    """
+
+    def __init__(self, specs: tuple[str, ...], seed: int = 0) -> None:
+        from h2h_racing.policies import make_driver
+
+        self.names = sorted(set(specs))
+        self.drivers = [make_driver(name, rng=np.random.default_rng(seed)) if name == "random"
+                        else make_driver(name) for name in self.names]
+        index = {name: i for i, name in enumerate(self.names)}
+        self.assignment = np.array([index[s] for s in specs])
+
+    def reset(self, core: Any) -> None:
+        """Reset every driver (each drives all copies; rows are picked in ``act``)."""
+        if len(self.assignment) != core.num_envs:
+            raise ValueError(f"{len(self.assignment)} opponent assignments for "
+                             f"{core.num_envs} env copies")
+        for driver in self.drivers:
+            driver.reset(core)
+
+    def act(self, core: Any, car: int) -> np.ndarray:
+        """Actions of car ``car`` in every copy, each from its copy's driver, (E, 2)."""
+        actions = np.empty((core.num_envs, 2), dtype=np.float32)
+        for k, driver in enumerate(self.drivers):
+            rows = self.assignment == k
+            actions[rows] = np.asarray(driver.act(core, car))[rows]
+        return actions
+
+
+def train_round(job: TrainJob) -> dict[str, float]:
+    """Run one round of PPO for ``job.learner``; save its state; return round statistics."""
+    os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
+    import torch
+    from rsl_rl.runners import OnPolicyRunner
+
+    from h2h_racing.league.train import save_policy
+    from h2h_racing.track_io import load_track
+
+    torch.set_num_threads(1)
+    folder = Path(job.folder)
+    config = job.config.train_config(job.seed)
+    config = dataclasses.replace(config, track=job.track)
+    cached = _RUNNERS.get(job.learner)
+    opponent = PoolOpponent(job.opponents, seed=job.seed)
+    if cached is not None and cached[0] == job.round - 1 and not job.reset:
+        runner = cached[1]
+        if runner.env.track.name != load_track(job.track).name:
+            runner.env.set_track(load_track(job.track))
+        runner.env.set_opponent(opponent)
+    else:
+        torch.manual_seed(job.seed)
+        env = _make_env(config, opponent)
+        runner = OnPolicyRunner(env, config.rsl_rl_dict(), log_dir=None, device="cpu")
+        state = folder / "runner.pt"
+        if state.is_file() and not job.reset:
+            runner.load(str(state))
+        elif job.config.init is not None:
+            _load_init(runner, job.config.init)
+    start = time.perf_counter()
+    runner.learn(job.config.iterations_per_round)
+    runner.current_learning_iteration += 1  # rsl-rl's learn() reuses the last index (G3)
+    seconds = time.perf_counter() - start
+    folder.mkdir(parents=True, exist_ok=True)
+    _atomic(lambda p: runner.save(str(p)), folder / "runner.pt")
+    _atomic(lambda p: save_policy(runner, config, p), folder / "latest.pt")
+    _RUNNERS[job.learner] = (job.round, runner)
+    steps = job.config.iterations_per_round * config.num_envs * config.num_steps_per_env
+    return {"steps": float(steps), "seconds": seconds}
+
+
+def _make_env(config: Any, opponent: PoolOpponent) -> Any:
+    from h2h_racing.league.vec_env import RacingVecEnv
+
+    return RacingVecEnv(config.env_config(), num_envs=config.num_envs, learners=1,
+                        opponent=opponent, observations=config.observations, seed=config.seed)
+
+
+def _load_init(runner: Any, init: str) -> None:
+    """Load the actor weights of policy ``init`` (shipped name or path) into ``runner``."""
+    import torch
+
+    from h2h_racing.policies.trained import shipped_policies
+
+    path = shipped_policies().get(init, Path(init))
+    payload = torch.load(path, weights_only=True, map_location="cpu")
+    try:
+        runner.alg.actor.load_state_dict(payload["actor_state_dict"])
+    except RuntimeError as err:
+        raise ValueError(f"init policy {init!r} does not fit the league's actor (hidden sizes "
+                         f"or observations differ): {err}") from None
+
+
+def _atomic(write: Any, path: Path) -> None:
+    """Write via a temporary file and rename, so a killed process never leaves half a file."""
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    write(tmp)
+    os.replace(tmp, path)
+
+
+# ------------------------------------------------------------------ the league (driver)
+
+
+class League:
+    """A league run in ``folder`` (see the module docstring).
+
+    Args:
+        config: The league.
+        folder: Where the store, learners and snapshots live; an existing league folder of
+            the same name is continued.
+        backend: Where learner rounds and matches run (``league.backends``); None: in process.
+        out: Progress display stream (None: stderr).
+    """
+
+    def __init__(self, config: LeagueConfig, folder: str | Path, backend: Any | None = None,
+                 out: TextIO | None = None) -> None:
+        from h2h_racing.league.backends import InProcessBackend
+
+        self.config = config
+        self.folder = Path(folder)
+        self.folder.mkdir(parents=True, exist_ok=True)
+        self.store = LeagueStore(self.folder / "league.sqlite", name=config.name)
+        stored = self.store.meta().get("league_name")
+        if stored is not None and stored != config.name:
+            raise ValueError(f"{self.folder} holds league {stored!r}, not {config.name!r}; "
+                             f"give another folder")
+        self.store.set_meta("league_name", config.name)
+        self.backend = backend or InProcessBackend()
+        self.out = out or sys.stderr
+        self.rng = np.random.default_rng(config.seed)
+        for anchor in config.anchors:
+            self.store.add_player(player_for(anchor))
+        for spec in config.learners:
+            self.store.add_player(Player(name=spec.name, kind="learner", role=spec.role,
+                                         checkpoint=str(self._latest(spec.name))))
+            if config.init is not None and not self._latest(spec.name).exists():
+                self._latest(spec.name).parent.mkdir(parents=True, exist_ok=True)
+                shutil.copyfile(player_for(config.init).checkpoint or config.init,
+                                self._latest(spec.name))
+
+    # ---- paths and pool
+
+    def _latest(self, learner: str) -> Path:
+        return self.folder / "learners" / learner / "latest.pt"
+
+    def snapshots(self) -> list[Player]:
+        """Frozen learner snapshots, oldest first."""
+        return self.store.players(kind="snapshot")
+
+    def _driver_spec(self, name: str) -> str:
+        """What ``make_driver`` builds player ``name`` from."""
+        player = self.store.player(name)
+        if player is None:
+            raise KeyError(name)
+        return player.checkpoint or name
+
+    def _pool(self) -> list[Any]:
+        from h2h_racing.league.pfsp import PoolEntry
+
+        pool = [PoolEntry(name=a, role="scripted", parent=None) for a in self.config.anchors]
+        pool += [PoolEntry(name=s.name, role=s.role or "main", parent=s.parent)
+                 for s in self.snapshots()]
+        return pool
+
+    # ---- state kept in the store
+
+    def _round(self) -> int:
+        return int(self.store.meta().get("round", "0"))
+
+    def _learner_meta(self, learner: str, key: str, default: float = 0.0) -> float:
+        return float(self.store.meta().get(f"{learner}.{key}", str(default)))
+
+    def _payoff(self) -> Any:
+        from h2h_racing.league.pfsp import Payoff
+
+        return Payoff.from_races(self.store.races(context=self._context("eval")),
+                                 decay=self.config.payoff_decay)
+
+    def _context(self, kind: str) -> str:
+        return f"league:{self.config.name}:{kind}"
+
+    # ---- the loop
+
+    def run(self) -> None:
+        """Run rounds until the time budget or the round cap is spent."""
+        start = time.perf_counter()
+        first = self._round()
+        for round_index in range(first, self.config.max_rounds):
+            self.round(round_index)
+            self.store.set_meta("round", str(round_index + 1))
+            elapsed = (time.perf_counter() - start) / 60.0
+            self._show(round_index, elapsed)
+            if elapsed >= self.config.minutes:
+                break
+
+    def round(self, round_index: int) -> None:
+        """One round: matchmaking, training, evaluation, snapshots, ratings."""
+        from h2h_racing.league.pfsp import choose_opponents, resets_on_snapshot
+
+        cfg = self.config
+        track = cfg.tracks[round_index % len(cfg.tracks)]
+        payoff = self._payoff()
+        pool = self._pool()
+        mains = [s.name for s in cfg.learners if s.role == "main"]
+        jobs = []
+        for k, spec in enumerate(cfg.learners):
+            if self._learner_meta(spec.name, "trained_round", -1) >= round_index:
+                continue  # trained before a restart
+            names = choose_opponents(self.rng, spec.name, spec.role, pool, mains, payoff,
+                                     cfg.num_envs)
+            specs = tuple(self._opponent_spec(name) for name in names)
+            reset = bool(self._learner_meta(spec.name, "reset", 0.0))
+            jobs.append(TrainJob(learner=spec.name, folder=str(self._latest(spec.name).parent),
+                                 config=cfg, round=round_index, track=track, opponents=specs,
+                                 reset=reset, seed=cfg.seed + 1000 * round_index + k))
+        for job, stats in self.backend.map(train_round, jobs):
+            name = job.learner
+            self.store.set_metas({
+                f"{name}.steps": str(int(self._learner_meta(name, "steps") + stats["steps"])),
+                f"{name}.reset": "0",
+                f"{name}.trained_round": str(round_index),
+                f"{name}.rounds_since_snapshot":
+                    str(int(self._learner_meta(name, "rounds_since_snapshot")) + 1)})
+        self._evaluate(round_index, track)
+        payoff = self._payoff()
+        for spec in cfg.learners:
+            frozen = [p.name for p in pool]
+            rates = payoff.win_rates(spec.name, frozen)
+            since = int(self._learner_meta(spec.name, "rounds_since_snapshot"))
+            if since >= cfg.snapshot_max_rounds or (
+                    since >= cfg.snapshot_min_rounds and rates.min() > cfg.snapshot_threshold):
+                self._snapshot(spec, reset=resets_on_snapshot(self.rng, spec.role))
+        self._place()
+
+    def _opponent_spec(self, name: str) -> str:
+        """Driver spec of a matchmaking choice (a learner's name means its latest weights)."""
+        if any(s.name == name for s in self.config.learners):
+            latest = self._latest(name)
+            if latest.exists():
+                return str(latest)
+            return self.config.rating_anchor
+        return self._driver_spec(name)
+
+    def _jobs(self, kind: str, round_index: int | None, pairs: list[tuple[str, str]],
+              track: str, races: int) -> list[Job]:
+        """2-car jobs of ``pairs`` (both seat orders) not yet stored (for this round)."""
+        context = self._context(kind)
+        prefix = context if round_index is None else f"{context}:round={round_index}"
+        done = self.store.done_keys(prefix + ":")
+        jobs = [make_job(track, (a, b), {a: self._opponent_spec(a), b: self._opponent_spec(b)},
+                         PAIR_ORDERS, range(races), prefix, done, laps=self.config.laps,
+                         seed=self.config.seed, context=context) for a, b in pairs]
+        return [job for job in jobs if job is not None]
+
+    def _evaluate(self, round_index: int, track: str) -> None:
+        """Each learner against every pool member and every other learner."""
+        pool = [p.name for p in self._pool()]
+        learners = [s.name for s in self.config.learners]
+        pairs = [(learner, other) for learner in learners for other in pool]
+        pairs += [(a, b) for i, a in enumerate(learners) for b in learners[i + 1:]]
+        self._play(self._jobs("eval", round_index, pairs, track, self.config.eval_races))
+
+    def _play(self, jobs: list[Job]) -> None:
+        for _job_done, records in self.backend.map(run_job, jobs):
+            for record in records:
+                self.store.record_match(record)
+
+    def _snapshot(self, spec: LearnerSpec, reset: bool) -> None:
+        """Freeze ``spec``'s latest weights into a new player (placed by ``_place``)."""
+        count = sum(1 for s in self.snapshots() if s.parent == spec.name)
+        name = f"{spec.name}_v{count + 1}"
+        path = self.folder / "snapshots" / f"{name}.pt"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(self._latest(spec.name), path)
+        steps = int(self._learner_meta(spec.name, "steps"))
+        self.store.add_player(Player(name=name, kind="snapshot", role=spec.role,
+                                     parent=spec.name, checkpoint=str(path),
+                                     checkpoint_sha256=file_sha256(path),
+                                     training_steps=steps))
+        self.store.set_metas({f"{spec.name}.rounds_since_snapshot": "0",
+                              f"{spec.name}.reset": "1" if reset else "0"})
+
+    def _place(self) -> None:
+        """Placement races of every snapshot against every older frozen player (anchors and
+        earlier snapshots) that are not stored yet; then refit the ratings."""
+        older = list(self.config.anchors)
+        pairs = []
+        for snapshot in self.snapshots():
+            pairs += [(snapshot.name, other) for other in older]
+            older.append(snapshot.name)
+        jobs = [job for track in self.config.tracks
+                for job in self._jobs("placement", None, pairs, track,
+                                      self.config.placement_races)]
+        if jobs:
+            self._play(jobs)
+            self._rate()
+
+    def league_steps(self) -> int:
+        """Agent steps trained by all learners together."""
+        return int(sum(self._learner_meta(s.name, "steps") for s in self.config.learners))
+
+    def _rate(self) -> None:
+        from h2h_racing.league.ratings import standings
+
+        races = self.store.races(context=self._context("placement"))
+        if not races:
+            return
+        rows = standings(races, anchor=self.config.rating_anchor, n_boot=100,
+                         rng=np.random.default_rng(self.config.seed))
+        self.store.record_ratings("bradley_terry", {r.player: r.rating for r in rows},
+                                  {r.player: (r.low, r.high) for r in rows},
+                                  training_steps=self.league_steps(), matches=len(races))
+
+    def standings(self) -> list[Any]:
+        """Current standings of the frozen players (placement races)."""
+        from h2h_racing.league.ratings import standings
+
+        races = self.store.races(context=self._context("placement"))
+        return standings(races, anchor=self.config.rating_anchor, n_boot=100,
+                         rng=np.random.default_rng(self.config.seed)) if races else []
+
+    def _show(self, round_index: int, minutes: float) -> None:
+        rows = self.standings()[:3]
+        top = ", ".join(f"{r.player} {r.rating:.0f}" for r in rows) or "-"
+        print(f"[league {self.config.name}] round {round_index + 1}  {minutes:5.1f} min  "
+              f"{self.league_steps() / 1e6:6.2f} M steps  snapshots {len(self.snapshots())}  "
+              f"top: {top}", file=self.out, flush=True)
+
+    def close(self) -> None:
+        """Release the store and the backend."""
+        self.store.close()
+        self.backend.close()

@@ -1,0 +1,93 @@
+"""Self-play league: config files, per-copy opponents, a smoke run that resumes."""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from h2h_racing.league.selfplay import League, LeagueConfig, LearnerSpec, PoolOpponent
+from h2h_racing.policies import make_driver, race_core
+
+LEAGUE_DIR = Path(__file__).resolve().parents[2] / "league"
+
+
+@pytest.mark.parametrize("path", sorted(LEAGUE_DIR.glob("*.toml")), ids=lambda p: p.name)
+def test_shipped_league_configs_load(path):
+    config = LeagueConfig.from_toml(path)
+    assert any(s.role == "main" for s in config.learners)
+
+
+def test_config_errors(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('name = "x"\nlearning_rat = 0.1\n')
+    with pytest.raises(ValueError, match=r"unknown keys \['learning_rat'\]"):
+        LeagueConfig.from_toml(bad)
+    bad.write_text('name = "x"\n[[learners]]\nname = "m"\nrole = "boss"\n')
+    with pytest.raises(ValueError, match="role must be one of"):
+        LeagueConfig.from_toml(bad)
+    bad.write_text("name = \n")
+    with pytest.raises(ValueError, match="not valid TOML"):
+        LeagueConfig.from_toml(bad)
+    with pytest.raises(ValueError, match="at least one learner with role 'main'"):
+        LeagueConfig(learners=(LearnerSpec(name="x", role="main_exploiter"),))
+    with pytest.raises(ValueError, match="rating_anchor"):
+        LeagueConfig(anchors=("pure_pursuit",))
+    with pytest.raises(ValueError, match="clash with anchors"):
+        LeagueConfig(learners=(LearnerSpec(name="racing_line"),))
+
+
+def test_pool_opponent_drives_each_copy_with_its_driver():
+    core = race_core("oval", num_cars=2, num_envs=4)
+    specs = ("racing_line", "pure_pursuit", "pure_pursuit", "racing_line")
+    pool = PoolOpponent(specs)
+    pool.reset(core)
+    actions = pool.act(core, 1)
+    for name in set(specs):
+        driver = make_driver(name)
+        driver.reset(core)
+        rows = np.array([s == name for s in specs])
+        np.testing.assert_array_equal(actions[rows], np.asarray(driver.act(core, 1))[rows])
+    with pytest.raises(ValueError, match="3 opponent assignments for 4 env copies"):
+        PoolOpponent(specs[:3]).reset(core)
+
+
+def test_smoke_league_snapshots_rates_and_resumes(tmp_path):
+    config = LeagueConfig.from_toml(LEAGUE_DIR / "smoke.toml")
+    one_round = dataclasses.replace(config, max_rounds=1)
+    out = io.StringIO()
+    league = League(one_round, tmp_path, out=out)
+    league.run()
+    # snapshot_max_rounds = 1: both learners are frozen after round 1.
+    assert [s.name for s in league.snapshots()] == ["main_v1", "main_exploiter_v1"]
+    league.close()
+    assert "round 1" in out.getvalue()
+
+    league = League(config, tmp_path, out=out)  # max_rounds = 2: one more round
+    league.run()
+    store = league.store
+    assert store.meta()["round"] == "2"
+    snapshots = league.snapshots()
+    assert len(snapshots) == 4
+    assert all(Path(s.checkpoint).is_file() and s.parent in ("main", "main_exploiter")
+               for s in snapshots)
+    # Training steps grow: round 2's snapshot of main trained twice as long as round 1's
+    # (1 iteration x 8 copies x 8 steps per round).
+    steps = {s.name: s.training_steps for s in snapshots}
+    assert steps["main_v1"] == 64 and steps["main_v2"] == 128
+    # Every snapshot was placed against every older frozen player: 2 anchors + k earlier
+    # snapshots for the k-th snapshot, 1 seed x 2 seat orders each -> 2 (2 + 3 + 4 + 5) = 28.
+    assert store.count_matches(context="league:smoke:placement") == 28
+    history = store.rating_history()
+    assert history["racing_line"][-1][1] == pytest.approx(1000.0)
+    assert set(history) == {"racing_line", "pure_pursuit", *steps}
+    # Evaluation races of each round are keyed by round: none is stored twice.
+    keys = [m.key for m in store.matches()]
+    assert len(keys) == len(set(keys))
+    for learner in ("main", "main_exploiter"):
+        assert (tmp_path / "learners" / learner / "latest.pt").is_file()
+        assert (tmp_path / "learners" / learner / "runner.pt").is_file()
+    league.close()
