@@ -40,7 +40,8 @@ class TestWheel:
 
 
 class TestLayers:
-    """Only physics.py imports pymunk, only env.py pettingzoo; the env never imports torch or rerun."""
+    """Only physics.py imports pymunk, only env.py pettingzoo; the env never imports torch, rerun
+    or matplotlib."""
 
     def test_only_physics_imports_pymunk(self) -> None:
         sources = sorted((REPO / "h2h_racing").rglob("*.py"))
@@ -56,7 +57,7 @@ class TestLayers:
 
     def test_env_never_imports_torch_or_rerun(self) -> None:
         code = ("import sys, h2h_racing; h2h_racing.parallel_env(track='oval').reset(seed=0); "
-                "print([m for m in ('torch', 'rerun') if m in sys.modules])")
+                "print([m for m in ('torch', 'rerun', 'matplotlib') if m in sys.modules])")
         out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                              check=True).stdout.strip()
         assert out == "[]"

@@ -1,0 +1,57 @@
+"""League plots: PNG files of the size asked for, with something drawn on them."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+pytest.importorskip("matplotlib")
+
+from h2h_racing.league.plots import plot_ratings, plot_win_matrix  # noqa: E402
+from h2h_racing.league.ratings import pairwise  # noqa: E402
+
+
+def read_png(path: Path) -> np.ndarray:
+    assert path.is_file() and path.stat().st_size > 0
+    image = cv2.imread(str(path))
+    assert image is not None, f"cv2 could not read {path}"
+    return image
+
+
+def test_rating_history_is_drawn_at_the_asked_size(tmp_path: Path) -> None:
+    history = {
+        "main": [(0, 1000, 950, 1050), (100, 1100, 1040, 1160), (200, 1180, 1120, 1240)],
+        "scripted": [(0, 1000, 1000, 1000), (200, 1000, 1000, 1000)],
+        "snapshot_1": [(100, 1080, math.nan, math.nan)],  # one point, no band
+    }
+    path = plot_ratings(history, tmp_path / "out" / "ratings.png", xlabel="iterations",
+                        size=(640, 400))
+    image = read_png(path)
+    assert image.shape == (400, 640, 3)
+    # Lines and text in several colours, not a blank canvas.
+    assert len(np.unique(image.reshape(-1, 3), axis=0)) > 20
+
+
+def test_win_matrix_default_size_grows_with_players(tmp_path: Path) -> None:
+    races = [{"A": 1, "B": 2, "C": 3}, {"B": 1, "A": 2}, {"A": 1, "B": 2}]
+    names, wins, games = pairwise(races, players=["A", "B", "C", "D"])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rates = wins / games  # NaN where a pair never met (D)
+    image = read_png(plot_win_matrix(names, rates, games, tmp_path / "matrix.png"))
+    # 300 + 60 * 4 players = 540 px square.
+    assert image.shape == (540, 540, 3)
+    assert image.std() > 10
+
+
+def test_bad_input_is_refused(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match=r"win_rate must be \(2, 2\) for 2 players"):
+        plot_win_matrix(["A", "B"], np.zeros((3, 3)), np.ones((2, 2)), tmp_path / "m.png")
+    with pytest.raises(ValueError, match="ending in .png"):
+        plot_ratings({"A": [(0, 1000, 990, 1010)]}, tmp_path / "r.jpg")
+    with pytest.raises(ValueError, match=r"history\['A'\] must be"):
+        plot_ratings({"A": [(0, 1000)]}, tmp_path / "r.png")
+    assert not list(tmp_path.iterdir())
