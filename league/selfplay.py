@@ -420,7 +420,7 @@ class League:
 
     def round(self, round_index: int) -> None:
         """One round: matchmaking, training, evaluation, snapshots, ratings."""
-        from h2h_racing.league.pfsp import choose_opponents, resets_on_snapshot
+        from h2h_racing.league.pfsp import choose_opponents, resets_on_snapshot, should_snapshot
 
         cfg = self.config
         track = cfg.tracks[round_index % len(cfg.tracks)]
@@ -449,11 +449,13 @@ class League:
         self._evaluate(round_index, track)
         payoff = self._payoff()
         for spec in cfg.learners:
-            frozen = [p.name for p in pool]
-            rates = payoff.win_rates(spec.name, frozen)
+            # AlphaStar judges a main exploiter against the mains, the others against the
+            # whole pool.
+            judged = mains if spec.role == "main_exploiter" else [p.name for p in pool]
             since = int(self._learner_meta(spec.name, "rounds_since_snapshot"))
-            if since >= cfg.snapshot_max_rounds or (
-                    since >= cfg.snapshot_min_rounds and rates.min() > cfg.snapshot_threshold):
+            if should_snapshot(since >= cfg.snapshot_min_rounds,
+                               since >= cfg.snapshot_max_rounds,
+                               payoff.win_rates(spec.name, judged), cfg.snapshot_threshold):
                 self._snapshot(spec, reset=resets_on_snapshot(self.rng, spec.role))
         self._place()
 
