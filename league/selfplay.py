@@ -28,7 +28,9 @@ continues from the last finished round: matches are keyed by round, so none is c
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import io
 import os
 import shutil
 import sys
@@ -276,7 +278,8 @@ def train_round(job: TrainJob) -> dict[str, float]:
     else:
         torch.manual_seed(job.seed)
         env = _make_env(config, opponent)
-        runner = OnPolicyRunner(env, config.rsl_rl_dict(), log_dir=None, device="cpu")
+        with contextlib.redirect_stdout(io.StringIO()):  # rsl-rl prints the model summaries
+            runner = OnPolicyRunner(env, config.rsl_rl_dict(), log_dir=None, device="cpu")
         state = folder / "runner.pt"
         if state.is_file() and not job.reset:
             runner.load(str(state))
@@ -353,6 +356,8 @@ class League:
         self.backend = backend or InProcessBackend()
         self.out = out or sys.stderr
         self.rng = np.random.default_rng(config.seed)
+        self.timings: dict[str, float] = {}
+        """Seconds spent in each phase of the last round (train, evaluate, place)."""
         for anchor in config.anchors:
             self.store.add_player(player_for(anchor))
         for spec in config.learners:
@@ -438,6 +443,7 @@ class League:
             jobs.append(TrainJob(learner=spec.name, folder=str(self._latest(spec.name).parent),
                                  config=cfg, round=round_index, track=track, opponents=specs,
                                  reset=reset, seed=cfg.seed + 1000 * round_index + k))
+        clock = time.perf_counter()
         for job, stats in self.backend.map(train_round, jobs):
             name = job.learner
             self.store.set_metas({
@@ -446,7 +452,11 @@ class League:
                 f"{name}.trained_round": str(round_index),
                 f"{name}.rounds_since_snapshot":
                     str(int(self._learner_meta(name, "rounds_since_snapshot")) + 1)})
+        self.timings["train"] = time.perf_counter() - clock
+        clock = time.perf_counter()
         self._evaluate(round_index, track)
+        self.timings["evaluate"] = time.perf_counter() - clock
+        clock = time.perf_counter()
         payoff = self._payoff()
         for spec in cfg.learners:
             # AlphaStar judges a main exploiter against the mains, the others against the
@@ -458,6 +468,7 @@ class League:
                                payoff.win_rates(spec.name, judged), cfg.snapshot_threshold):
                 self._snapshot(spec, reset=resets_on_snapshot(self.rng, spec.role))
         self._place()
+        self.timings["place"] = time.perf_counter() - clock
 
     def _opponent_spec(self, name: str) -> str:
         """Driver spec of a matchmaking choice (a learner's name means its latest weights)."""
@@ -474,9 +485,11 @@ class League:
         context = self._context(kind)
         prefix = context if round_index is None else f"{context}:round={round_index}"
         done = self.store.done_keys(prefix + ":")
+        # Evaluation races start at new points every round; placement races at fixed ones.
+        seed = self.config.seed + (0 if round_index is None else 7919 * (round_index + 1))
         jobs = [make_job(track, (a, b), {a: self._opponent_spec(a), b: self._opponent_spec(b)},
                          PAIR_ORDERS, range(races), prefix, done, laps=self.config.laps,
-                         seed=self.config.seed, context=context) for a, b in pairs]
+                         seed=seed, context=context) for a, b in pairs]
         return [job for job in jobs if job is not None]
 
     def _evaluate(self, round_index: int, track: str) -> None:
@@ -551,7 +564,9 @@ class League:
         top = ", ".join(f"{r.player} {r.rating:.0f}" for r in rows) or "-"
         print(f"[league {self.config.name}] round {round_index + 1}  {minutes:5.1f} min  "
               f"{self.league_steps() / 1e6:6.2f} M steps  snapshots {len(self.snapshots())}  "
-              f"top: {top}", file=self.out, flush=True)
+              f"top: {top}  (train {self.timings.get('train', 0):.0f} s, evaluate "
+              f"{self.timings.get('evaluate', 0):.0f} s, place {self.timings.get('place', 0):.0f} s)",
+              file=self.out, flush=True)
 
     def close(self) -> None:
         """Release the store and the backend."""
