@@ -143,6 +143,37 @@ class ParamsBuilder:
         """Length of C [m], closing segment included (``params["track_length"]``)."""
         return self._centre.length
 
+    @property
+    def waypoint_ndist(self) -> FloatArray:
+        """Normalised arc position of every waypoint along C, closing one (1.0) included."""
+        return np.asarray(self._wp_ndist)
+
+    def geometry(self, position: FloatArray, yaw: FloatArray,
+                 ) -> tuple[FloatArray, FloatArray, BoolArray]:
+        """Model point, its arc position on C and all-wheels-on-track for many cars at once.
+
+        Args:
+            position: Car origins, shape (M, 2) [m].
+            yaw: Car headings, shape (M,) [rad].
+
+        Returns:
+            ``(model_point (M, 2) [m], arc (M,) [m along C], all_wheels_on_track (M,))``, as
+            ``build`` computes them for ``x``/``y``, ``projection_distance`` and
+            ``all_wheels_on_track``.
+        """
+        position = np.ascontiguousarray(position, dtype=np.float64).reshape(-1, 2)
+        yaw = np.ascontiguousarray(yaw, dtype=np.float64).reshape(-1)
+        m = len(position)
+        model_point = np.empty((m, 2))
+        proj = np.empty(m)
+        scratch = np.empty(m)
+        is_left = np.empty(m, dtype=np.bool_)
+        wheels_on = np.empty(m, dtype=np.bool_)
+        _car_kernel(position, yaw, FRONT_OF_CAR, self._wheels, self._centre.table,
+                    self._left.table, self._right.table, model_point, proj, scratch,
+                    np.empty(m), is_left, wheels_on)
+        return model_point, proj, wheels_on
+
     def reset(self) -> None:
         """Forget the previous progress of every car (call at the start of an episode)."""
         self._prev_progress = [0.0] * self.num_cars
@@ -310,8 +341,16 @@ class ParamsBuilder:
         e = env_index
         if steering_deg is None:
             steering_deg = np.degrees(core.steer_command[e])
+        position, yaw = core.position[e], core.yaw[e]
+        if events is not None:
+            # A car whose episode ended this step has already been parked off the track;
+            # its last params describe where it was when it ended.
+            ended = events.terminated[e] | events.truncated[e]
+            if ended.any():
+                position = np.where(ended[:, None], core.final_position[e], position)
+                yaw = np.where(ended, core.final_yaw[e], yaw)
         return self.build(
-            position=core.position[e], yaw=core.yaw[e], speed_command=core.speed_command[e],
+            position=position, yaw=yaw, speed_command=core.speed_command[e],
             steering_deg=steering_deg, start_distance=core.start_distance[e],
             steps=float(core.steps[e]), sim_time=float(core.time[e]), speed=core.speed[e],
             off_track=None if events is None else events.off_track[e],
