@@ -76,7 +76,8 @@ def _cmd_race(args: argparse.Namespace) -> int:
     drivers = [d.strip() for d in args.drivers.split(",") if d.strip()]
     tracks = list_tracks() if args.track == "all" else [args.track]
     for flag, value in (("--video", args.video), ("--save", args.save),
-                        ("--spawn", args.spawn), ("--serve", args.serve)):
+                        ("--spawn", args.spawn), ("--serve", args.serve),
+                        ("--simtrace", args.simtrace)):
         if value and len(tracks) > 1:
             raise ValueError(f"{flag} records one race: give a single --track, not 'all'")
     if args.serve_seconds is not None and not args.serve:
@@ -88,8 +89,16 @@ def _cmd_race(args: argparse.Namespace) -> int:
         result = run_race(track=track, drivers=drivers, race_type=args.race_type,
                           laps=args.laps, seed=args.seed, video=args.video, save=args.save,
                           spawn=args.spawn, serve=args.serve, web_port=args.web_port,
-                          grpc_port=args.grpc_port, progress=progress)
+                          grpc_port=args.grpc_port, progress=progress,
+                          simtrace=args.simtrace, reward_function=args.reward_function)
         print(("\n" if i else "") + result.table, flush=True)
+        if result.rewards is not None:
+            totals = ", ".join(f"car_{k} ({d}) {r:.2f}" for k, (d, r)
+                               in enumerate(zip(result.drivers, result.rewards)))
+            print(f"total DeepRacer reward ({args.reward_function}): {totals}", flush=True)
+        if result.simtrace:
+            print(f"simtrace -> {', '.join(result.simtrace)} (load one with deepracer-utils: "
+                  f"DeepRacerLog(FOLDER).load_evaluation_trace())", flush=True)
         if args.save:
             print(f"recording -> {args.save} (open it with: rerun {args.save})", flush=True)
         if result.viewer is not None:
@@ -179,6 +188,10 @@ def build_parser() -> argparse.ArgumentParser:
                       help="with --serve: stop serving after N seconds instead of at Ctrl-C")
     race.add_argument("--web-port", type=int, default=9090, help="web viewer port (--serve)")
     race.add_argument("--grpc-port", type=int, default=9876, help="rerun server port (--serve)")
+    race.add_argument("--simtrace", default=None, metavar="DIR",
+                      help="write DeepRacer simtrace CSV + metrics JSON here (one folder per car)")
+    race.add_argument("--reward-function", default=None, metavar="REWARD.py",
+                      help="a DeepRacer reward_function file: print each car's total reward")
     race.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                       help="show a progress bar on stderr (default: when stderr is a terminal)")
     race.set_defaults(func=_cmd_race)

@@ -365,7 +365,7 @@ class SimtraceWriter:
         closest = np.where(d_next < d_prev, nxt, prv)
         heading = np.degrees(np.arctan2(np.sin(yaw), np.cos(yaw)))
         heading = np.where(heading <= -180.0, heading + 360.0, heading)
-        tstamp = self._clock[:, None] + core.time[self.envs][:, None]
+        tstamp = np.broadcast_to(self._clock[:, None] + core.time[self.envs][:, None], shape)
         wall = repr(time.time())
         track_len = self._track_len
         for wi, ci in np.argwhere(mask).tolist():
