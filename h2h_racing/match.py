@@ -17,6 +17,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from h2h_racing.config import RaceRules
+from h2h_racing.deepracer.metadata import nearest_discrete
 from h2h_racing.env import RacingEnv
 from h2h_racing.results import format_results
 
@@ -106,6 +107,7 @@ def run_race(track: str, drivers: list[str], race_type: str = "head_to_head",
         logger = SimtraceWriter(simtrace, env.config, env.track, agents=env.possible_agents,
                                 phase="evaluation")
     totals = np.zeros(len(drivers))
+    discrete = env.config.action_type == "discrete"
     options = {"grid": grid} if grid is not None else None
     recorder = None
     if save is not None or spawn or serve:
@@ -129,13 +131,22 @@ def run_race(track: str, drivers: list[str], race_type: str = "head_to_head",
         while env.agents:
             actions = {agent: policies[i].act(env.core, i)[0]
                        for i, agent in enumerate(env.possible_agents) if agent in env.agents}
+            index = None
+            if discrete:
+                # Drivers output [-1, 1]^2; a discrete action space takes the nearest action.
+                index = np.zeros((1, len(drivers)), dtype=np.int64)
+                for agent, value in actions.items():
+                    index[0, env.possible_agents.index(agent)] = nearest_discrete(env.config,
+                                                                                  value)
+                actions = {a: int(index[0, env.possible_agents.index(a)]) for a in actions}
             racing = env.core.racing
             out = env.step(actions)
             steps += 1
             step_rewards = np.array([[out[1].get(a, 0.0) for a in env.possible_agents]])
             totals += step_rewards[0]
             if logger is not None:
-                logger.log_step(env.core, env.last_events, racing, reward=step_rewards)
+                logger.log_step(env.core, env.last_events, racing, reward=step_rewards,
+                                action=index)
             if recorder is not None:
                 recorder.log_step(actions, *out)
             if writer is not None:

@@ -238,8 +238,12 @@ class SimtraceWriter:
         position, yaw = core.position[sel], core.yaw[sel]
         zeros = np.zeros(self._active.shape)
         status = np.where(mask, "prepare", "")
+        # The prepare row has taken no action yet: -1 for a discrete action space (keeping
+        # the column numeric for deepracer-utils), [steer throttle] of the idle command else.
+        none = (np.full(self._active.shape, -1) if self.config.action_type == "discrete"
+                else None)
         self._rows(core, mask, position, yaw, zeros, zeros, status,
-                   np.zeros(self._active.shape, dtype=bool), zeros, action=None,
+                   np.zeros(self._active.shape, dtype=bool), zeros, action=none,
                    steer=np.degrees(core.steer_command[sel]), speed=core.speed_command[sel])
 
     def log_step(self, core: RaceCore, events: StepEvents, racing: BoolArray,
