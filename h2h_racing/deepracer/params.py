@@ -137,6 +137,7 @@ class ParamsBuilder:
         self._camera_range = camera_range_m
         self._prev_progress = [0.0] * num_cars
         self._last_steps = -math.inf
+        self._obstacle_cache: tuple[FloatArray, FloatArray, FloatArray, BoolArray] | None = None
 
     @property
     def track_length(self) -> float:
@@ -237,8 +238,18 @@ class ParamsBuilder:
         _car_kernel(position, yaw, FRONT_OF_CAR, self._wheels, self._centre.table,
                     self._left.table, self._right.table, model_point, proj, dist, width,
                     is_left, wheels_on)
-        _object_kernel(objects, self._centre.table, self._ring_inner, obj_proj, obj_dist,
-                       obj_band)
+        # Obstacles stand still within an episode: their projections (a full scan of the
+        # centre line and two ring tests each) are reused while their positions are equal.
+        cached = self._obstacle_cache
+        if cached is None or not np.array_equal(cached[0], obstacle_position):
+            o_proj, o_dist = np.empty(k), np.empty(k)
+            o_band = np.empty(k, dtype=np.bool_)
+            _object_kernel(obstacle_position, self._centre.table, self._ring_inner, o_proj,
+                           o_dist, o_band)
+            cached = self._obstacle_cache = (obstacle_position.copy(), o_proj, o_dist, o_band)
+        obj_proj[:k], obj_dist[:k], obj_band[:k] = cached[1], cached[2], cached[3]
+        _object_kernel(position, self._centre.table, self._ring_inner, obj_proj[k:],
+                       obj_dist[k:], obj_band[k:])
         length = self._centre.length
         # Scalars from here on: with a handful of cars, Python floats beat small numpy ops.
         start = [(v / self.track.length) % 1.0 for v in np.ravel(start_distance).tolist()]
