@@ -78,7 +78,8 @@ def _cmd_race(args: argparse.Namespace) -> int:
     drivers = [d.strip() for d in args.drivers.split(",") if d.strip()]
     tracks = list_tracks() if args.track == "all" else [args.track]
     for flag, value in (("--video", args.video), ("--save", args.save),
-                        ("--spawn", args.spawn), ("--serve", args.serve)):
+                        ("--spawn", args.spawn), ("--serve", args.serve),
+                        ("--simtrace", args.simtrace)):
         if value and len(tracks) > 1:
             raise ValueError(f"{flag} records one race: give a single --track, not 'all'")
     if args.serve_seconds is not None and not args.serve:
@@ -86,12 +87,26 @@ def _cmd_race(args: argparse.Namespace) -> int:
     if args.serve_seconds is not None and args.serve_seconds < 0:
         raise ValueError(f"--serve-seconds must be >= 0, got {args.serve_seconds}")
     progress = sys.stderr.isatty() if args.progress is None else args.progress
+    overrides = {}
+    if args.model_metadata:
+        from h2h_racing.deepracer.metadata import load_action_space
+
+        overrides = load_action_space(args.model_metadata)
     for i, track in enumerate(tracks):
         result = run_race(track=track, drivers=drivers, race_type=args.race_type,
                           laps=args.laps, seed=args.seed, video=args.video, save=args.save,
                           spawn=args.spawn, serve=args.serve, web_port=args.web_port,
-                          grpc_port=args.grpc_port, progress=progress)
+                          grpc_port=args.grpc_port, progress=progress,
+                          simtrace=args.simtrace, reward_function=args.reward_function,
+                          **overrides)
         print(("\n" if i else "") + result.table, flush=True)
+        if result.rewards is not None:
+            totals = ", ".join(f"car_{k} ({d}) {r:.2f}" for k, (d, r)
+                               in enumerate(zip(result.drivers, result.rewards)))
+            print(f"total DeepRacer reward ({args.reward_function}): {totals}", flush=True)
+        if result.simtrace:
+            print(f"simtrace -> {', '.join(result.simtrace)} (load one with deepracer-utils: "
+                  f"DeepRacerLog(FOLDER).load_evaluation_trace())", flush=True)
         if args.save:
             print(f"recording -> {args.save} (open it with: rerun {args.save})", flush=True)
         if result.viewer is not None:
@@ -132,11 +147,15 @@ def _cmd_train(args: argparse.Namespace) -> int:
     config = TrainConfig(track=args.track, observations=args.obs, num_envs=args.envs,
                          num_cars=1 if opponent is None else 2,
                          learners=None if opponent is None else 1, opponent=opponent,
-                         seed=args.seed)
+                         seed=args.seed, reward_function=args.reward_function,
+                         model_metadata=args.model_metadata, simtrace_envs=args.simtrace)
     runner = train(config, iterations=args.iterations, out=args.out, minutes=args.minutes)
     out = Path(args.out)
     print(f"trained {runner.current_learning_iteration} iterations -> {out / 'policy.pt'} "
           f"(rsl-rl logs and checkpoints in {out})")
+    if args.simtrace:
+        print(f"DeepRacer simtrace + metrics -> {out / 'simtrace'} (deepracer-utils: "
+              f"DeepRacerLog('{out / 'simtrace' / 'car_0'}').load_training_trace())")
     if args.onnx:
         path = runner.export_policy_to_onnx(str(out), filename="policy.onnx")
         print(f"ONNX export -> {path or out / 'policy.onnx'}")
@@ -181,6 +200,12 @@ def build_parser() -> argparse.ArgumentParser:
                       help="with --serve: stop serving after N seconds instead of at Ctrl-C")
     race.add_argument("--web-port", type=int, default=9090, help="web viewer port (--serve)")
     race.add_argument("--grpc-port", type=int, default=9876, help="rerun server port (--serve)")
+    race.add_argument("--simtrace", default=None, metavar="DIR",
+                      help="write DeepRacer simtrace CSV + metrics JSON here (one folder per car)")
+    race.add_argument("--reward-function", default=None, metavar="REWARD.py",
+                      help="a DeepRacer reward_function file: print each car's total reward")
+    race.add_argument("--model-metadata", default=None, metavar="model_metadata.json",
+                      help="race with a DeepRacer action space (as the policy was trained)")
     race.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                       help="show a progress bar on stderr (default: when stderr is a terminal)")
     race.set_defaults(func=_cmd_race)
@@ -197,6 +222,13 @@ def build_parser() -> argparse.ArgumentParser:
                        help="stop after this much training time (checked every 10 iterations)")
     train.add_argument("--envs", type=int, default=256, help="env copies")
     train.add_argument("--seed", type=int, default=0)
+    train.add_argument("--reward-function", default=None, metavar="REWARD.py",
+                       help="train on a DeepRacer reward_function(params) file")
+    train.add_argument("--model-metadata", default=None, metavar="model_metadata.json",
+                       help="use a DeepRacer action space (discrete list or continuous ranges)")
+    train.add_argument("--simtrace", type=int, default=0, metavar="N",
+                       help="write DeepRacer simtrace + metrics of N env copies (<= 10) to "
+                            "OUT/simtrace")
     train.add_argument("--onnx", action=argparse.BooleanOptionalAction, default=True,
                        help="also export the final policy to ONNX")
     train.add_argument("--out", required=True, help="output folder, e.g. runs/speedway")

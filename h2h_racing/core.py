@@ -220,6 +220,11 @@ class RaceCore:
         """Obstacle centres in track coordinates, (E, K, 2), metres."""
         self.obstacle_yaw = zeros((e, k))
         """Obstacle headings, (E, K), radians."""
+        self.final_position = zeros((e, n, 2))
+        """Where each car was when its episode ended, before it was parked, (E, N, 2), metres
+        (logs and DeepRacer params of the last step read it; stale while the car races)."""
+        self.final_yaw = zeros((e, n))
+        """Heading of each car when its episode ended, (E, N), radians."""
         self._parked = zeros((e, n), dtype=bool)
         # Scratch for the per-step projection: every car's centre, then the wheels of the
         # cars near an edge.
@@ -628,6 +633,8 @@ class RaceCore:
     def _park_cars(self, mask: BoolArray) -> None:
         """Move cars whose episode ended off the track, where nobody can hit them."""
         env_idx, car_idx = np.nonzero(mask)
+        self.final_position[env_idx, car_idx] = self.position[env_idx, car_idx]
+        self.final_yaw[env_idx, car_idx] = self.yaw[env_idx, car_idx]
         self.position[env_idx, car_idx] = self._park[car_idx]
         self.velocity[env_idx, car_idx] = 0.0
         self.yaw_rate[env_idx, car_idx] = 0.0

@@ -205,6 +205,8 @@ class RacingEnv(ParallelEnv):
         self.track = track if isinstance(track, Track) else load_track(config.track)
         self.render_mode = render_mode
         self.core = RaceCore(config, self.track, num_envs=1)
+        self.last_events: Any = None
+        """The ``StepEvents`` of the last step (None before the first), for loggers."""
         self.possible_agents = [f"car_{i}" for i in range(config.num_cars)]
         self.agents: list[str] = []
         self._index = {agent: i for i, agent in enumerate(self.possible_agents)}
@@ -333,6 +335,7 @@ class RacingEnv(ParallelEnv):
         core = self.core
         racing = core._racing
         events = core.step(steer, speed)
+        self.last_events = events
         terms, reward_array = rewards.reward_terms(self._weights, events, core.speed, racing)
         reward = reward_array[0].tolist()
         params = None

@@ -14,7 +14,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
+import numpy as np
+
 from h2h_racing.config import RaceRules
+from h2h_racing.deepracer.metadata import nearest_discrete
 from h2h_racing.env import RacingEnv
 from h2h_racing.results import format_results
 
@@ -31,6 +34,10 @@ class RaceResult:
     """One dict per car in race order (see ``h2h_racing.results.race_results``)."""
     steps: int
     """Env steps the race took."""
+    rewards: tuple[float, ...] | None = None
+    """With ``reward_function``: each car's total DeepRacer reward over the race, car order."""
+    simtrace: tuple[str, ...] = ()
+    """With ``simtrace``: the per-car DeepRacer log folders written."""
     viewer: Any = field(default=None, repr=False, compare=False)
     """With ``serve=True``: the ``h2h_racing.viz.RaceRecorder`` still serving the web viewer
     (``viewer.viewer_url``); ``viewer.serve_until(seconds)`` keeps it up, then closes it."""
@@ -51,7 +58,9 @@ def run_race(track: str, drivers: list[str], race_type: str = "head_to_head",
              laps: int | None = None, seed: int = 0, grid: list[int] | None = None,
              video: str | Path | None = None, save: str | Path | None = None,
              spawn: bool = False, serve: bool = False, web_port: int = 9090,
-             grpc_port: int = 9876, progress: bool = False, **config: Any) -> RaceResult:
+             grpc_port: int = 9876, progress: bool = False,
+             simtrace: str | Path | None = None,
+             reward_function: str | Path | None = None, **config: Any) -> RaceResult:
     """Race ``drivers`` (one car each) on ``track`` and return the result.
 
     Args:
@@ -69,6 +78,11 @@ def run_race(track: str, drivers: list[str], race_type: str = "head_to_head",
         web_port: HTTP port of the web viewer with ``serve``.
         grpc_port: gRPC port of the rerun server with ``serve``.
         progress: Show a progress bar on stderr once the race has run for a second.
+        simtrace: Write DeepRacer simtrace CSV and metrics JSON here, one folder per car
+            (``h2h_racing.deepracer.logs``; every lap is an evaluation trial).
+        reward_function: A DeepRacer reward file, called for every car on every step (loaded
+            once per car); the result's ``rewards`` holds each car's total, and the simtrace
+            its per-step values.
         **config: Further ``EnvConfig`` fields.
 
     Raises:
@@ -84,7 +98,16 @@ def run_race(track: str, drivers: list[str], race_type: str = "head_to_head",
     if laps is not None:
         rules = dataclasses.replace(rules, laps=laps)
     env = RacingEnv(track=track, num_cars=len(drivers), race_type=race_type, rules=rules,
-                    render_mode="rgb_array" if video else None, **config)
+                    render_mode="rgb_array" if video else None,
+                    reward_function=reward_function, **config)
+    logger = None
+    if simtrace is not None:
+        from h2h_racing.deepracer.logs import SimtraceWriter
+
+        logger = SimtraceWriter(simtrace, env.config, env.track, agents=env.possible_agents,
+                                phase="evaluation")
+    totals = np.zeros(len(drivers))
+    discrete = env.config.action_type == "discrete"
     options = {"grid": grid} if grid is not None else None
     recorder = None
     if save is not None or spawn or serve:
@@ -102,12 +125,28 @@ def run_race(track: str, drivers: list[str], race_type: str = "head_to_head",
             recorder.log_reset(obs, infos)
         for policy in policies:
             policy.reset(env.core)
+        if logger is not None:
+            logger.start(env.core)
         writer = _video_writer(video, env) if video else None
         while env.agents:
             actions = {agent: policies[i].act(env.core, i)[0]
                        for i, agent in enumerate(env.possible_agents) if agent in env.agents}
+            index = None
+            if discrete:
+                # Drivers output [-1, 1]^2; a discrete action space takes the nearest action.
+                index = np.zeros((1, len(drivers)), dtype=np.int64)
+                for agent, value in actions.items():
+                    index[0, env.possible_agents.index(agent)] = nearest_discrete(env.config,
+                                                                                  value)
+                actions = {a: int(index[0, env.possible_agents.index(a)]) for a in actions}
+            racing = env.core.racing
             out = env.step(actions)
             steps += 1
+            step_rewards = np.array([[out[1].get(a, 0.0) for a in env.possible_agents]])
+            totals += step_rewards[0]
+            if logger is not None:
+                logger.log_step(env.core, env.last_events, racing, reward=step_rewards,
+                                action=index)
             if recorder is not None:
                 recorder.log_step(actions, *out)
             if writer is not None:
@@ -122,6 +161,8 @@ def run_race(track: str, drivers: list[str], race_type: str = "head_to_head",
             recorder.close()
         raise
     finally:
+        if logger is not None:
+            logger.close()
         if writer is not None:
             writer.release()
         if bar is not None:
@@ -129,6 +170,8 @@ def run_race(track: str, drivers: list[str], race_type: str = "head_to_head",
     if recorder is not None and not serve:
         recorder.close()
     return RaceResult(track=env.track.name, drivers=tuple(drivers), rows=rows, steps=steps,
+                      rewards=tuple(totals.tolist()) if reward_function is not None else None,
+                      simtrace=tuple(logger.paths) if logger is not None else (),
                       viewer=recorder if serve else None)
 
 

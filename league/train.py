@@ -100,6 +100,15 @@ class TrainConfig:
     with more threads than free cores, OpenMP's spinning threads slow the update ~10x."""
     ppo: PPOConfig = field(default_factory=PPOConfig)
     """PPO hyper-parameters."""
+    reward_function: str | None = None
+    """A DeepRacer reward file (``reward_function(params)``) replacing the built-in reward;
+    loaded once per learner car and env copy."""
+    model_metadata: str | None = None
+    """A DeepRacer ``model_metadata.json`` whose action space (discrete list or continuous
+    ranges) the cars use; its sensors are not used (``observations`` chooses the inputs)."""
+    simtrace_envs: int = 0
+    """Env copies whose DeepRacer simtrace + metrics logs ``train`` writes to
+    ``OUT/simtrace`` (0-10; 0 writes none)."""
 
     def __post_init__(self) -> None:
         if self.observations not in ("state", "camera"):
@@ -107,6 +116,19 @@ class TrainConfig:
                              f"{self.observations!r}")
         if self.num_envs < 1 or self.num_steps_per_env < 1:
             raise ValueError("TrainConfig.num_envs and num_steps_per_env must be >= 1")
+        if not isinstance(self.simtrace_envs, int) or not 0 <= self.simtrace_envs <= min(
+                10, self.num_envs):
+            raise ValueError(f"TrainConfig.simtrace_envs must be an int in [0, "
+                             f"{min(10, self.num_envs)}] (at most 10 and num_envs), got "
+                             f"{self.simtrace_envs!r}")
+        if self.track == PROCEDURAL and (self.reward_function or self.simtrace_envs):
+            raise ValueError("TrainConfig: a DeepRacer reward function or simtrace logs need "
+                             "one track; pick a fixed track instead of 'procedural'")
+        for name in ("reward_function", "model_metadata"):
+            path = getattr(self, name)
+            if path is not None and not Path(path).is_file():
+                raise ValueError(f"TrainConfig.{name}: {path!r} is not a file; give the path "
+                                 f"of your DeepRacer {name.replace('_', ' ')} file")
 
     def env_config(self) -> EnvConfig:
         """The env the learners race in: DeepRacer's training rules (an infraction ends the
@@ -118,7 +140,15 @@ class TrainConfig:
         track = "speedway" if self.track == PROCEDURAL else self.track
         return EnvConfig(track=track, num_cars=self.num_cars, race_type=race_type,
                          rules=RaceRules.preset(race_type, "training"), reward=self.reward,
-                         camera=camera)
+                         camera=camera, **self.action_space())
+
+    def action_space(self) -> dict[str, Any]:
+        """The ``EnvConfig`` action-space overrides of ``model_metadata`` (empty without)."""
+        if self.model_metadata is None:
+            return {}
+        from h2h_racing.deepracer.metadata import load_action_space
+
+        return load_action_space(self.model_metadata)
 
     def rsl_rl_dict(self) -> dict[str, Any]:
         """Return a fresh rsl-rl ``OnPolicyRunner`` config (rsl-rl mutates what it is given)."""
@@ -145,11 +175,14 @@ class TrainConfig:
             "critic": critic,
         }
 
-    def make_env(self, device: str = "cpu") -> RacingVecEnv:
-        """Build the VecEnv for this config."""
+    def make_env(self, device: str = "cpu", simtrace: str | Path | None = None) -> RacingVecEnv:
+        """Build the VecEnv for this config (logging ``simtrace_envs`` copies to ``simtrace``
+        when both are given)."""
+        log = None if simtrace is None or not self.simtrace_envs else str(simtrace)
         return RacingVecEnv(self.env_config(), num_envs=self.num_envs, learners=self.learners,
                             opponent=self.opponent, observations=self.observations,
-                            seed=self.seed, device=device)
+                            seed=self.seed, device=device, reward_function=self.reward_function,
+                            simtrace=log, simtrace_envs=max(self.simtrace_envs, 1))
 
 
 def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
@@ -159,7 +192,8 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
     Args:
         config: What to train.
         iterations: PPO iterations (each ``num_envs * num_steps_per_env`` samples).
-        out: Folder for rsl-rl's logs and checkpoints and the final ``policy.pt``; None keeps
+        out: Folder for rsl-rl's logs and checkpoints and the final ``policy.pt`` (and, with
+            ``config.simtrace_envs``, DeepRacer logs in ``out/simtrace/<car>``); None keeps
             nothing on disk.
         minutes: Stop after the first iteration that ends past this wall-clock budget.
     """
@@ -167,7 +201,7 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
 
     torch.manual_seed(config.seed)
     torch.set_num_threads(config.torch_threads)
-    env = config.make_env()
+    env = config.make_env(simtrace=None if out is None else Path(out) / "simtrace")
     log_dir = None if out is None else str(Path(out))
     runner = OnPolicyRunner(env, config.rsl_rl_dict(), log_dir=log_dir, device="cpu")
     start = time.perf_counter()
@@ -189,6 +223,7 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
         done += step
         if minutes is not None and time.perf_counter() - start > 60.0 * minutes:
             break
+    env.close()
     if out is not None:
         save_policy(runner, config, Path(out) / "policy.pt",
                     training={"iterations": done, "seconds": time.perf_counter() - start})

@@ -22,6 +22,16 @@ Observation groups (a ``TensorDict`` with batch size ``num_envs * learners``):
   (/ 4 m/s) and heading error, whatever its distance;
 - ``camera`` (with ``observations="camera"``): the learner's camera as (B, C, H, W) float32 in
   [0, 1], ready for rsl-rl's ``CNNModel``.
+
+DeepRacer inputs: ``reward_function`` replaces the built-in reward by a DeepRacer
+``reward_function(params)`` file, loaded once per learner row (module-level state stays per
+car and per copy), with the env's rules (called from the first step, ``steps == 1``; a frozen car
+gets 0 without a call; exceptions, non-numbers, NaN and inf raise ``RewardFunctionError``
+naming the file, the car, the step and the params; |reward| > 1e5 warns). A discrete action
+space (``action_type="discrete"``, e.g. from ``load_model_metadata``) keeps rsl-rl's Gaussian
+policy: its (steer, speed) output picks the nearest action of the list
+(``h2h_racing.deepracer.metadata.nearest_discrete``). ``simtrace`` writes DeepRacer simtrace
+and metrics logs of a few copies (``h2h_racing.deepracer.logs``).
 """
 
 from __future__ import annotations
@@ -41,6 +51,7 @@ from tensordict import TensorDict  # noqa: E402
 from h2h_racing import rewards  # noqa: E402
 from h2h_racing.config import EnvConfig  # noqa: E402
 from h2h_racing.core import RaceCore  # noqa: E402
+from h2h_racing.deepracer.metadata import nearest_discrete  # noqa: E402
 from h2h_racing.race import TIME_EPS  # noqa: E402
 from h2h_racing.sensors.camera import CameraSensor  # noqa: E402
 from h2h_racing.sensors.state import state_observation  # noqa: E402
@@ -68,13 +79,20 @@ class RacingVecEnv(VecEnv):
         random_starts: Start each episode at a random point of the lap (drawn from the core's
             generator), as DeepRacer's training starts move round the lap, so that a policy
             learns every corner from every state; False starts on the start line.
+        reward_function: A DeepRacer reward file (``reward_function(params)``) for the
+            learner cars; None keeps the built-in reward.
+        simtrace: Folder for DeepRacer simtrace CSV and metrics JSON of the learner cars of
+            copies ``0 .. simtrace_envs - 1`` (one DRfC worker each); None writes none. Call
+            ``close()`` at the end to write the metrics and unfinished episodes.
+        simtrace_envs: How many copies to log (1-10; logging costs a few us per row).
     """
 
     def __init__(self, config: EnvConfig, num_envs: int, learners: int | None = None,
                  opponent: str | Any | None = None,
                  observations: Literal["state", "camera"] = "state", seed: int = 0,
                  device: str = "cpu", track: Track | None = None,
-                 random_starts: bool = True) -> None:
+                 random_starts: bool = True, reward_function: str | None = None,
+                 simtrace: str | None = None, simtrace_envs: int = 2) -> None:
         n = config.num_cars
         learners = n if learners is None else learners
         if not isinstance(learners, int) or not 1 <= learners <= n:
@@ -84,9 +102,6 @@ class RacingVecEnv(VecEnv):
                              "(a driver name such as 'racing_line', or a driver object)")
         if observations not in ("state", "camera"):
             raise ValueError(f"observations must be 'state' or 'camera', got {observations!r}")
-        if config.action_type != "continuous":
-            raise ValueError("RacingVecEnv needs action_type='continuous' (rsl-rl's Gaussian "
-                             f"policies), got {config.action_type!r}")
         self.config = config
         self.cfg = config.to_dict()
         self.track = track if track is not None else load_track(config.track)
@@ -111,6 +126,27 @@ class RacingVecEnv(VecEnv):
         self.random_starts = random_starts
         self.core.seed(seed)
         self.core.reset(start=self._starts(num_envs))
+        self.reward_function = reward_function
+        self._builders: list[Any] = []
+        self._deepracer: list[Any] = []
+        if reward_function is not None:
+            from h2h_racing.deepracer import DeepRacerReward, ParamsBuilder
+
+            self._builders = [ParamsBuilder(self.track, config.car, n) for _ in range(num_envs)]
+            self._deepracer = [DeepRacerReward(reward_function, learners,
+                                               agents=[f"car_{i} of env copy {e}"
+                                                       for i in range(learners)])
+                               for e in range(num_envs)]
+        self.simtrace = None
+        if simtrace is not None:
+            from h2h_racing.deepracer.logs import SimtraceWriter
+
+            if not isinstance(simtrace_envs, int) or not 1 <= simtrace_envs <= num_envs:
+                raise ValueError(f"simtrace_envs must be an int in [1, num_envs={num_envs}], "
+                                 f"got {simtrace_envs!r}")
+            self.simtrace = SimtraceWriter(simtrace, config, self.track,
+                                           envs=range(simtrace_envs), cars=range(learners))
+            self.simtrace.start(self.core)
         if self.opponent is not None:
             self.opponent.reset(self.core)
         if self._camera is not None:
@@ -142,10 +178,24 @@ class RacingVecEnv(VecEnv):
         commands[:, :learners] = values
         for car in range(learners, n):
             commands[:, car] = self.opponent.act(core, car)
-        steer, speed = cfg.commands(commands)
+        index = None
+        if cfg.action_type == "discrete":
+            # Every car drives the nearest action of the list (see the module docstring).
+            index = nearest_discrete(cfg, commands)
+            table = np.asarray(cfg.discrete_actions, dtype=np.float64)
+            steer_deg, speed = table[index, 0], table[index, 1]
+            steer = np.radians(steer_deg)
+        else:
+            steer, speed = cfg.commands(commands)
+            steer_deg = np.degrees(steer)
         racing = core.racing
         events = core.step(steer, speed)
         terms, reward = rewards.reward_terms(self._weights, events, core.speed, racing)
+        if self._deepracer:
+            reward = self._deepracer_rewards(events, racing, steer_deg)
+        if self.simtrace is not None:
+            self.simtrace.log_step(core, events, racing, reward=reward, action=index,
+                                   steer_deg=steer_deg)
 
         learner_done = core.done[:, :learners]
         ended = learner_done.any(axis=1) | core.done.all(axis=1)
@@ -157,6 +207,10 @@ class RacingVecEnv(VecEnv):
             core.reset_envs(ended, start=self._starts(int(ended.sum())))
             if self._camera is not None:
                 self._camera.reset(core)
+            for copy in np.flatnonzero(ended).tolist() if self._builders else ():
+                self._builders[copy].reset()
+            if self.simtrace is not None:
+                self.simtrace.start(core, ended)
         self._obs = self._observe()
         steps = np.repeat(core.steps, learners)
         self.episode_length_buf.copy_(torch.from_numpy(steps))
@@ -175,13 +229,25 @@ class RacingVecEnv(VecEnv):
         self.opponent = opponent
         self.opponent.reset(self.core)
 
+    def close(self) -> None:
+        """Write the simtrace's metrics and unfinished episodes (no-op without simtrace)."""
+        if self.simtrace is not None:
+            self.simtrace.close()
+
     def set_track(self, track: Track) -> None:
         """Race on ``track`` from now on: every copy restarts on it (same generator stream).
 
         Call it between ``learn()`` calls (rsl-rl reads ``get_observations()`` at the start of
         each); training on a new random track every few iterations teaches policies to drive
         tracks they have never seen.
+
+        Raises:
+            ValueError: With a DeepRacer reward function or simtrace logs, which are bound to
+                one track.
         """
+        if self._deepracer or self.simtrace is not None:
+            raise ValueError("a DeepRacer reward function or simtrace logs need one track; "
+                             "train on a fixed track (not 'procedural') to use them")
         rng = self.core.rng
         max_cycles = self.core.max_cycles
         self.track = track
@@ -198,6 +264,26 @@ class RacingVecEnv(VecEnv):
         self._obs = self._observe()
 
     # ---------------------------------------------------------------- helpers
+    def _deepracer_rewards(self, events: Any, racing: npt.NDArray[np.bool_],
+                           steer_deg: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """DeepRacer rewards of the learner cars that raced this step, (E, N) (0 elsewhere).
+
+        One Python call per learner car and copy: the reward function is Python, so this is
+        the cost of running DeepRacer reward files (see benchmarks/bench_deepracer.py).
+        """
+        core, learners = self.core, self.learners
+        reward = np.zeros((core.num_envs, core.num_cars))
+        rated = racing[:, :learners]
+        for copy in np.flatnonzero(rated.any(axis=1)).tolist():
+            cars = np.flatnonzero(rated[copy]).tolist()
+            params = self._builders[copy].from_core(core, steering_deg=steer_deg[copy],
+                                                    events=events, cars=cars, env_index=copy)
+            function = self._deepracer[copy]
+            for car in cars:
+                reward[copy, car] = function(car, params[car])
+        return reward
+
+
     def _starts(self, count: int) -> npt.NDArray[np.float64] | None:
         if not self.random_starts:
             return None

@@ -17,7 +17,12 @@ import warnings
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import numpy.typing as npt
+
 from h2h_racing.config import CameraConfig, LidarConfig
+
+FloatArrayLike = npt.NDArray[np.float64]
 
 MAX_STEER_DEG = 30.0
 """DeepRacer's steering limit [deg]."""
@@ -175,3 +180,53 @@ def _sensors(path: Path, sensor: Any, lidar_config: Any) -> dict[str, Any]:
     if lidar_config is not None and not isinstance(lidar_config, dict):
         raise _fail(path, "'lidar_config'", "an object", lidar_config)
     return out
+
+
+def discrete_table(config: Any) -> tuple[FloatArrayLike, FloatArrayLike]:
+    """The discrete actions of ``config`` as (steering [deg], speed [m/s]) arrays, shape (K,)."""
+    table = np.asarray(config.discrete_actions, dtype=np.float64).reshape(-1, 2)
+    return table[:, 0], table[:, 1]
+
+
+def nearest_discrete(config: Any, actions: Any) -> Any:
+    """Map continuous actions in [-1, 1]^2 to the nearest of ``config``'s discrete actions.
+
+    Policies with a Gaussian head (rsl-rl's) output ``(steer, speed)`` in [-1, 1]; for a
+    DeepRacer discrete action space the box [-1, 1]^2 stands for the table's own box
+    [min steering, max steering] x [min speed, max speed], and the action taken is the table
+    row nearest to the output in those normalised units (clipped to [-1, 1] first):
+
+        u_k = 2 (steer_k - steer_min) / (steer_max - steer_min) - 1   (0 when all equal)
+        v_k = 2 (speed_k - speed_min) / (speed_max - speed_min) - 1
+        index = argmin_k (a0 - u_k)^2 + (a1 - v_k)^2   (the first on ties)
+
+    Args:
+        config: An ``EnvConfig`` with ``discrete_actions``.
+        actions: Continuous actions, shape (..., 2).
+
+    Returns:
+        Indices into ``config.discrete_actions``, shape (...), int64.
+    """
+    steer, speed = discrete_table(config)
+    points = np.stack([_unit(steer), _unit(speed)], axis=1)  # (K, 2)
+    a = np.clip(np.asarray(actions, dtype=np.float64), -1.0, 1.0)
+    d2 = ((a[..., None, :] - points) ** 2).sum(axis=-1)
+    return np.argmin(d2, axis=-1)
+
+
+def _unit(values: Any) -> Any:
+    low, high = float(values.min()), float(values.max())
+    if high == low:
+        return np.zeros_like(values)
+    return 2.0 * (values - low) / (high - low) - 1.0
+
+
+ACTION_KEYS = ("action_type", "discrete_actions", "min_speed", "max_speed", "min_steer_deg",
+               "max_steer_deg")
+"""The ``EnvConfig`` fields that make up an action space."""
+
+
+def load_action_space(path: str | Path) -> dict[str, Any]:
+    """Only the action-space overrides of ``load_model_metadata(path)`` (``ACTION_KEYS``), for
+    training and racing with the metadata's actions while choosing observations separately."""
+    return {k: v for k, v in load_model_metadata(path).items() if k in ACTION_KEYS}

@@ -137,11 +137,43 @@ class ParamsBuilder:
         self._camera_range = camera_range_m
         self._prev_progress = [0.0] * num_cars
         self._last_steps = -math.inf
+        self._obstacle_cache: tuple[FloatArray, FloatArray, FloatArray, BoolArray] | None = None
 
     @property
     def track_length(self) -> float:
         """Length of C [m], closing segment included (``params["track_length"]``)."""
         return self._centre.length
+
+    @property
+    def waypoint_ndist(self) -> FloatArray:
+        """Normalised arc position of every waypoint along C, closing one (1.0) included."""
+        return np.asarray(self._wp_ndist)
+
+    def geometry(self, position: FloatArray, yaw: FloatArray,
+                 ) -> tuple[FloatArray, FloatArray, BoolArray]:
+        """Model point, its arc position on C and all-wheels-on-track for many cars at once.
+
+        Args:
+            position: Car origins, shape (M, 2) [m].
+            yaw: Car headings, shape (M,) [rad].
+
+        Returns:
+            ``(model_point (M, 2) [m], arc (M,) [m along C], all_wheels_on_track (M,))``, as
+            ``build`` computes them for ``x``/``y``, ``projection_distance`` and
+            ``all_wheels_on_track``.
+        """
+        position = np.ascontiguousarray(position, dtype=np.float64).reshape(-1, 2)
+        yaw = np.ascontiguousarray(yaw, dtype=np.float64).reshape(-1)
+        m = len(position)
+        model_point = np.empty((m, 2))
+        proj = np.empty(m)
+        scratch = np.empty(m)
+        is_left = np.empty(m, dtype=np.bool_)
+        wheels_on = np.empty(m, dtype=np.bool_)
+        _car_kernel(position, yaw, FRONT_OF_CAR, self._wheels, self._centre.table,
+                    self._left.table, self._right.table, model_point, proj, scratch,
+                    np.empty(m), is_left, wheels_on)
+        return model_point, proj, wheels_on
 
     def reset(self) -> None:
         """Forget the previous progress of every car (call at the start of an episode)."""
@@ -206,8 +238,18 @@ class ParamsBuilder:
         _car_kernel(position, yaw, FRONT_OF_CAR, self._wheels, self._centre.table,
                     self._left.table, self._right.table, model_point, proj, dist, width,
                     is_left, wheels_on)
-        _object_kernel(objects, self._centre.table, self._ring_inner, obj_proj, obj_dist,
-                       obj_band)
+        # Obstacles stand still within an episode: their projections (a full scan of the
+        # centre line and two ring tests each) are reused while their positions are equal.
+        cached = self._obstacle_cache
+        if cached is None or not np.array_equal(cached[0], obstacle_position):
+            o_proj, o_dist = np.empty(k), np.empty(k)
+            o_band = np.empty(k, dtype=np.bool_)
+            _object_kernel(obstacle_position, self._centre.table, self._ring_inner, o_proj,
+                           o_dist, o_band)
+            cached = self._obstacle_cache = (obstacle_position.copy(), o_proj, o_dist, o_band)
+        obj_proj[:k], obj_dist[:k], obj_band[:k] = cached[1], cached[2], cached[3]
+        _object_kernel(position, self._centre.table, self._ring_inner, obj_proj[k:],
+                       obj_dist[k:], obj_band[k:])
         length = self._centre.length
         # Scalars from here on: with a handful of cars, Python floats beat small numpy ops.
         start = [(v / self.track.length) % 1.0 for v in np.ravel(start_distance).tolist()]
@@ -310,8 +352,16 @@ class ParamsBuilder:
         e = env_index
         if steering_deg is None:
             steering_deg = np.degrees(core.steer_command[e])
+        position, yaw = core.position[e], core.yaw[e]
+        if events is not None:
+            # A car whose episode ended this step has already been parked off the track;
+            # its last params describe where it was when it ended.
+            ended = events.terminated[e] | events.truncated[e]
+            if ended.any():
+                position = np.where(ended[:, None], core.final_position[e], position)
+                yaw = np.where(ended, core.final_yaw[e], yaw)
         return self.build(
-            position=core.position[e], yaw=core.yaw[e], speed_command=core.speed_command[e],
+            position=position, yaw=yaw, speed_command=core.speed_command[e],
             steering_deg=steering_deg, start_distance=core.start_distance[e],
             steps=float(core.steps[e]), sim_time=float(core.time[e]), speed=core.speed[e],
             off_track=None if events is None else events.off_track[e],

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import cv2
@@ -76,6 +77,33 @@ class TestRaceCommand:
         capture.release()
         # One frame per step plus the start frame; a 1-lap race on the 20 m oval takes > 5 s.
         assert frames > 5 * 15
+
+    def test_simtrace_and_deepracer_reward(self, tmp_path: Path,
+                                           capsys: pytest.CaptureFixture[str]) -> None:
+        # A reward function that pays 1 per step: each car's total is its number of rated
+        # steps, and every simtrace row after the prepare row carries reward 1.
+        reward = tmp_path / "reward.py"
+        reward.write_text("def reward_function(params):\n    return 1\n")
+        out = tmp_path / "logs"
+        assert main(["race", "--track", "oval", "--laps", "1", "--simtrace", str(out),
+                     "--reward-function", str(reward), "--no-progress"]) == 0
+        text = capsys.readouterr().out
+        assert "total DeepRacer reward" in text and f"simtrace -> {out / 'car_0'}" in text
+        for car in ("car_0", "car_1"):
+            (trace,) = (out / car).glob("evaluation-*/evaluation-simtrace/0-iteration.csv")
+            lines = trace.read_text().splitlines()
+            assert lines[0].startswith("episode,steps,X,Y,yaw,steer,throttle,action,reward")
+            rewards = [float(line.split(",")[8]) for line in lines[2:]]
+            assert rewards == [1.0] * len(rewards)
+            # "car_0 (racing_line) 123.00": the total equals the number of step rows.
+            line = next(t for t in text.splitlines() if t.startswith("total DeepRacer"))
+            total = float(re.search(rf"{car} \(\w+\) ([0-9.]+)", line).group(1))
+            assert total == len(rewards)
+
+    def test_simtrace_needs_a_single_track(self, tmp_path: Path,
+                                           capsys: pytest.CaptureFixture[str]) -> None:
+        assert main(["race", "--track", "all", "--simtrace", str(tmp_path)]) == 2
+        assert "--simtrace records one race" in capsys.readouterr().err
 
 
 class TestCameraCommand:

@@ -139,3 +139,34 @@ class TestProcedural:
         env.set_track(load_track("kidney"))
         assert env.core.track.name == "kidney" and all(env.core.steps == 0)
         assert env.get_observations()["policy"].shape == (3, 33)
+
+
+def test_train_cli_with_deepracer_inputs(tmp_path: Path) -> None:
+    """``h2h-racing train --reward-function --model-metadata --simtrace`` on a route file."""
+    from h2h_racing.cli import main
+
+    examples = Path(__file__).resolve().parents[2] / "examples" / "deepracer"
+    out = tmp_path / "run"
+    assert main(["train", "--track", "oval", "--iterations", "1", "--envs", "4",
+                 "--reward-function", str(examples / "follow_centre_line.py"),
+                 "--model-metadata", str(examples / "model_metadata.json"),
+                 "--simtrace", "2", "--no-onnx", "--out", str(out)]) == 0
+    payload = torch.load(out / "policy.pt", weights_only=True)
+    # The example's five actions: steering -30, -15, 0, 15, 30 deg at 0.6 m/s.
+    assert payload["env_config"]["action_type"] == "discrete"
+    assert [a[0] for a in payload["env_config"]["discrete_actions"]] == [-30, -15, 0, 15, 30]
+    trace = out / "simtrace" / "car_0" / "1" / "training-simtrace" / "0-iteration.csv"
+    rows = [line.split(",") for line in trace.read_text().splitlines()[1:]]
+    # Step rows carry a discrete index in 0..4 and the list's speed, 0.6 m/s.
+    steps = [r for r in rows if r[15] != "prepare"]
+    assert steps and {r[7] for r in steps} <= {"0", "1", "2", "3", "4"}
+    assert {float(r[6]) for r in steps} == {0.6}
+
+
+def test_deepracer_inputs_are_checked(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="reward_function: .* is not a file"):
+        TrainConfig(reward_function=str(tmp_path / "missing.py"))
+    with pytest.raises(ValueError, match="need one track"):
+        TrainConfig(track="procedural", simtrace_envs=1)
+    with pytest.raises(ValueError, match="simtrace_envs must be an int in"):
+        TrainConfig(simtrace_envs=11)

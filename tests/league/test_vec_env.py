@@ -146,3 +146,70 @@ class TestTraining:
         pa, pb, pc = (torch.cat([p.detach().flatten() for p in m.parameters()]) for m in (a, b, c))
         assert torch.equal(pa, pb)
         assert not torch.equal(pa, pc)
+
+
+class TestDeepRacerInputs:
+    """DeepRacer reward files, discrete action lists and simtrace logs in the VecEnv."""
+
+    def test_reward_file_state_is_per_row(self, tmp_path) -> None:
+        # Each call returns how often this module instance was called: with one instance per
+        # row, every row gets 1, 2, 3 on steps 1, 2, 3; one shared instance would give the
+        # two rows different, larger counts (1 and 2, then 3 and 4, ...).
+        reward = tmp_path / "count.py"
+        reward.write_text("calls = 0\n\ndef reward_function(params):\n    global calls\n"
+                          "    calls += 1\n    return calls\n")
+        env = RacingVecEnv(training_config(num_cars=1, race_type="time_trial",
+                                           rules=RaceRules.preset("time_trial", "training")),
+                           num_envs=2, reward_function=str(reward))
+        for step in (1, 2, 3):
+            _, rewards, dones, _ = env.step(torch.tensor([[0.0, -1.0], [0.0, -1.0]]))
+            assert not dones.any()
+            assert rewards.tolist() == [float(step), float(step)]
+
+    def test_bad_reward_names_file_car_and_step(self, tmp_path) -> None:
+        from h2h_racing.deepracer import RewardFunctionError
+
+        reward = tmp_path / "nan_at_3.py"
+        reward.write_text("def reward_function(params):\n"
+                          "    return float('nan') if params['steps'] == 3 else 1.0\n")
+        env = RacingVecEnv(training_config(num_cars=1, race_type="time_trial",
+                                           rules=RaceRules.preset("time_trial", "training")),
+                           num_envs=2, reward_function=str(reward))
+        env.step(torch.zeros(2, 2))
+        env.step(torch.zeros(2, 2))
+        with pytest.raises(RewardFunctionError, match=r"nan_at_3\.py returned nan") as err:
+            env.step(torch.zeros(2, 2))
+        assert "car_0 of env copy 0" in str(err.value) and "step 3.0" in str(err.value)
+
+    def test_discrete_actions_take_the_nearest_of_the_list(self) -> None:
+        from h2h_racing.deepracer.metadata import nearest_discrete
+
+        # Steering -30..30 deg and speeds 1..3 m/s span [-1, 1]^2: (-30, 1) -> (-1, -1),
+        # (0, 2) -> (0, 0), (30, 3) -> (1, 1).
+        config = EnvConfig(action_type="discrete",
+                           discrete_actions=((-30.0, 1.0), (0.0, 2.0), (30.0, 3.0)))
+        actions = np.array([[-0.9, -0.8], [0.1, 0.2], [0.6, 0.7], [5.0, 5.0]])
+        # (0.6, 0.7): to (0, 0) 0.36 + 0.49 = 0.85, to (1, 1) 0.16 + 0.09 = 0.25 -> 2;
+        # (5, 5) is clipped to (1, 1) -> 2.
+        assert nearest_discrete(config, actions).tolist() == [0, 1, 2, 2]
+        env = RacingVecEnv(dataclasses.replace(
+            config, track="oval", num_cars=1, race_type="time_trial",
+            rules=RaceRules.preset("time_trial", "training")), num_envs=2)
+        env.step(torch.tensor([[-1.0, -1.0], [1.0, 1.0]]))
+        core = env.core
+        assert np.degrees(core.steer_command[:, 0]).tolist() == pytest.approx([-30.0, 30.0])
+        assert core.speed_command[:, 0].tolist() == [1.0, 3.0]
+
+    def test_simtrace_logs_chosen_copies_as_workers(self, tmp_path) -> None:
+        env = RacingVecEnv(training_config(), num_envs=4, simtrace=str(tmp_path),
+                           simtrace_envs=2)
+        for _ in range(5):
+            env.step(torch.zeros(8, 2))
+        env.close()
+        for car in ("car_0", "car_1"):
+            for worker in ("0", "1"):
+                trace = tmp_path / car / worker / "training-simtrace" / "0-iteration.csv"
+                lines = trace.read_text().splitlines()
+                # Header, the prepare row and 5 steps (an episode on the oval lasts longer).
+                assert len(lines) == 7 and lines[1].split(",")[15] == "prepare"
+            assert not (tmp_path / car / "2").exists()

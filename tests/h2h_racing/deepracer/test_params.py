@@ -231,3 +231,20 @@ class TestRealRoutes:
             assert p["all_wheels_on_track"] and p["is_reversed"] is reverse
             if path.stem == "reinvent_base":
                 assert p["track_length"] == pytest.approx(17.709, abs=1e-3)
+
+
+def test_obstacle_projections_follow_moved_obstacles() -> None:
+    # The builder reuses obstacle projections while the obstacles stand still; moving one
+    # must give the same params as a fresh builder. Box from (7, -0.5) to (3, 0.5): its
+    # arc position along the square's first side goes from 7 m to 3 m.
+    track = square_track()
+    warm = ParamsBuilder(track, CAR, 1)
+    kw = {"obstacle_yaw": np.array([0.0])}
+    build(warm, [(1.0, 0.0)], [0.0], obstacle_position=np.array([[7.0, -0.5]]), **kw)
+    moved = build(warm, [(1.0, 0.0)], [0.0], steps=2.0,
+                  obstacle_position=np.array([[3.0, 0.5]]), **kw)[0]
+    fresh = build(ParamsBuilder(track, CAR, 1), [(1.0, 0.0)], [0.0], steps=2.0,
+                  obstacle_position=np.array([[3.0, 0.5]]), **kw)[0]
+    assert moved["objects_distance"] == pytest.approx([3.0])
+    assert moved["objects_distance"] == fresh["objects_distance"]
+    assert moved["objects_left_of_center"] == fresh["objects_left_of_center"] == [True]
