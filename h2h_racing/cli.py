@@ -4,6 +4,7 @@
                     [--save race.rrd] [--spawn] [--serve [--serve-seconds N]]
     h2h-racing camera [--track speedway] [--car 1] [--steps 20] [--out camera.png]
     h2h-racing train --out runs/NAME [--track T] [--obs state|camera] [--opponents none|D]
+                     [--eval-every 50]
     h2h-racing evaluate --policy runs/NAME/policy.pt [--track T] [--episodes 20]
     h2h-racing tracks list
     h2h-racing tracks show NAME [--out NAME.png]
@@ -148,7 +149,8 @@ def _cmd_train(args: argparse.Namespace) -> int:
                          num_cars=1 if opponent is None else 2,
                          learners=None if opponent is None else 1, opponent=opponent,
                          seed=args.seed, reward_function=args.reward_function,
-                         model_metadata=args.model_metadata, simtrace_envs=args.simtrace)
+                         model_metadata=args.model_metadata, simtrace_envs=args.simtrace,
+                         eval_every=args.eval_every)
     runner = train(config, iterations=args.iterations, out=args.out, minutes=args.minutes)
     out = Path(args.out)
     print(f"trained {runner.current_learning_iteration} iterations -> {out / 'policy.pt'} "
@@ -229,6 +231,9 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--simtrace", type=int, default=0, metavar="N",
                        help="write DeepRacer simtrace + metrics of N env copies (<= 10) to "
                             "OUT/simtrace")
+    train.add_argument("--eval-every", type=int, default=50, metavar="N",
+                       help="every N iterations, evaluate the policy (tensorboard Eval/...) and "
+                            "record a race to OUT/eval/iter_<n>.rrd; 0 turns it off")
     train.add_argument("--onnx", action=argparse.BooleanOptionalAction, default=True,
                        help="also export the final policy to ONNX")
     train.add_argument("--out", required=True, help="output folder, e.g. runs/speedway")

@@ -10,6 +10,7 @@ import dataclasses
 import math
 import sys
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
@@ -54,7 +55,7 @@ class RaceResult:
         return self.drivers[int(self.rows[0]["agent"].split("_")[1])]
 
 
-def run_race(track: str, drivers: list[str], race_type: str = "head_to_head",
+def run_race(track: str, drivers: Sequence[str | Any], race_type: str = "head_to_head",
              laps: int | None = None, seed: int = 0, grid: list[int] | None = None,
              video: str | Path | None = None, save: str | Path | None = None,
              spawn: bool = False, serve: bool = False, web_port: int = 9090,
@@ -65,7 +66,8 @@ def run_race(track: str, drivers: list[str], race_type: str = "head_to_head",
 
     Args:
         track: Catalogue name or track file.
-        drivers: Driver names (see ``h2h_racing.policies.DRIVERS``), car i gets driver i.
+        drivers: Driver names (see ``h2h_racing.policies.DRIVERS``) or driver objects (with
+            ``reset(core)``, ``act(core, car)`` and a ``name``); car i gets driver i.
         race_type: ``"head_to_head"``, ``"time_trial"`` or ``"object_avoidance"``.
         laps: Lap target; None keeps the race type's preset.
         seed: Seed of the race (grid draw and obstacle randomisation).
@@ -93,7 +95,9 @@ def run_race(track: str, drivers: list[str], race_type: str = "head_to_head",
 
     if not drivers:
         raise ValueError("give at least one driver, e.g. drivers=['racing_line', 'pure_pursuit']")
-    policies = [make_driver(name) for name in drivers]
+    policies = [make_driver(d) if isinstance(d, str) else d for d in drivers]
+    labels = [d if isinstance(d, str) else getattr(d, "name", type(d).__name__)
+              for d in drivers]
     rules = RaceRules.preset(race_type)
     if laps is not None:
         rules = dataclasses.replace(rules, laps=laps)
@@ -115,7 +119,7 @@ def run_race(track: str, drivers: list[str], race_type: str = "head_to_head",
 
         recorder = RaceRecorder(env, path=save, spawn=spawn, serve=serve, web_port=web_port,
                                 grpc_port=grpc_port)
-    names = {f"car_{i}": name for i, name in enumerate(drivers)}
+    names = {f"car_{i}": name for i, name in enumerate(labels)}
     bar = ProgressBar(env) if progress else None
     writer = None
     steps = 0
@@ -169,7 +173,7 @@ def run_race(track: str, drivers: list[str], race_type: str = "head_to_head",
             bar.close()
     if recorder is not None and not serve:
         recorder.close()
-    return RaceResult(track=env.track.name, drivers=tuple(drivers), rows=rows, steps=steps,
+    return RaceResult(track=env.track.name, drivers=tuple(labels), rows=rows, steps=steps,
                       rewards=tuple(totals.tolist()) if reward_function is not None else None,
                       simtrace=tuple(logger.paths) if logger is not None else (),
                       viewer=recorder if serve else None)

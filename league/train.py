@@ -4,15 +4,19 @@
 dict it is given). ``train`` runs PPO with rsl-rl's tensorboard logs and checkpoints in the
 output folder, then writes ``policy.pt``: a self-contained policy file that loads with
 ``torch.load(weights_only=True)`` and carries the env and observation config it was trained
-with (see ``h2h_racing.policies.trained``).
+with (see ``h2h_racing.policies.trained``). Every ``eval_every`` iterations it evaluates the
+current actor (``evaluate_during_training``): figures into the tensorboard log under ``Eval/``
+and a rerun recording of a race to ``<out>/eval/iter_<n>.rrd``.
 """
 
 from __future__ import annotations
 
 import copy
 import dataclasses
+import importlib.util
 import os
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -109,6 +113,13 @@ class TrainConfig:
     simtrace_envs: int = 0
     """Env copies whose DeepRacer simtrace + metrics logs ``train`` writes to
     ``OUT/simtrace`` (0-10; 0 writes none)."""
+    eval_every: int = 50
+    """Iterations between evaluations of the current actor [iterations]; 0 turns them off.
+    Evaluations need an output folder (``train(out=...)``)."""
+    eval_episodes: int = 8
+    """Lap attempts per evaluation, from start points spread evenly round the lap."""
+    eval_race_seconds: float = 60.0
+    """Cap on the length of the recorded evaluation race [simulated s]."""
 
     def __post_init__(self) -> None:
         if self.observations not in ("state", "camera"):
@@ -129,6 +140,15 @@ class TrainConfig:
             if path is not None and not Path(path).is_file():
                 raise ValueError(f"TrainConfig.{name}: {path!r} is not a file; give the path "
                                  f"of your DeepRacer {name.replace('_', ' ')} file")
+        if not (isinstance(self.eval_every, int) and self.eval_every >= 0):
+            raise ValueError(f"TrainConfig.eval_every must be an int >= 0 (iterations; 0 turns "
+                             f"evaluation off), got {self.eval_every!r}")
+        if not (isinstance(self.eval_episodes, int) and self.eval_episodes >= 1):
+            raise ValueError(f"TrainConfig.eval_episodes must be an int >= 1, got "
+                             f"{self.eval_episodes!r}")
+        if not (isinstance(self.eval_race_seconds, (int, float)) and self.eval_race_seconds > 0):
+            raise ValueError(f"TrainConfig.eval_race_seconds must be > 0 [s], got "
+                             f"{self.eval_race_seconds!r}")
 
     def env_config(self) -> EnvConfig:
         """The env the learners race in: DeepRacer's training rules (an infraction ends the
@@ -192,9 +212,10 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
     Args:
         config: What to train.
         iterations: PPO iterations (each ``num_envs * num_steps_per_env`` samples).
-        out: Folder for rsl-rl's logs and checkpoints and the final ``policy.pt`` (and, with
-            ``config.simtrace_envs``, DeepRacer logs in ``out/simtrace/<car>``); None keeps
-            nothing on disk.
+        out: Folder for rsl-rl's logs and checkpoints, the evaluation recordings
+            (``eval/iter_<n>.rrd``, see ``evaluate_during_training``), the final
+            ``policy.pt`` and, with ``config.simtrace_envs``, DeepRacer logs in
+            ``out/simtrace/<car>``; None keeps nothing on disk and skips the evaluations.
         minutes: Stop after the first iteration that ends past this wall-clock budget.
     """
     from rsl_rl.runners import OnPolicyRunner
@@ -207,20 +228,27 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
     start = time.perf_counter()
     done = 0
     procedural = config.track == PROCEDURAL
+    eval_every = config.eval_every if out is not None else 0
     chunk = iterations
-    if procedural:
-        chunk = config.track_every
-    elif minutes is not None:
+    if minutes is not None:
         chunk = 10
     tracks = np.random.default_rng(config.seed + 1)
     while done < iterations:
-        if procedural:
-            env.set_track(random_training_track(tracks))
+        # Each learn() call stops where the track changes, an evaluation is due or the time
+        # budget is checked.
         step = min(chunk, iterations - done)
+        if procedural:
+            if done % config.track_every == 0:
+                env.set_track(random_training_track(tracks))
+            step = min(step, config.track_every - done % config.track_every)
+        if eval_every:
+            step = min(step, eval_every - done % eval_every)
         runner.learn(step)
         # rsl-rl's learn() re-runs the last iteration index on the next call (its G3 gotcha).
         runner.current_learning_iteration += 1
         done += step
+        if eval_every and done % eval_every == 0:
+            evaluate_during_training(runner, config, Path(out), done)  # type: ignore[arg-type]
         if minutes is not None and time.perf_counter() - start > 60.0 * minutes:
             break
     env.close()
@@ -228,6 +256,83 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
         save_policy(runner, config, Path(out) / "policy.pt",
                     training={"iterations": done, "seconds": time.perf_counter() - start})
     return runner
+
+
+def evaluate_during_training(runner: Any, config: TrainConfig, out: str | Path,
+                             iteration: int) -> dict[str, float]:
+    """Evaluate the runner's current actor, log the figures and record a race.
+
+    The actor becomes a ``TrainedPolicy`` straight from memory (no file). On the evaluation
+    track (``config.env_config().track``; ``speedway`` for procedural runs) it makes
+    ``config.eval_episodes`` one-lap attempts (``league.evaluate.evaluate``: training rules,
+    start points spread round the lap), then races one lap as car 0 (in race rules) against
+    the training opponent, or against itself in self-play, or alone, with the race's grid
+    drawn from ``config.seed`` so that every evaluation of a run races the same start. The
+    race is recorded to ``<out>/eval/iter_<iteration>.rrd`` when rerun-sdk is installed (a
+    warning says so otherwise).
+
+    Figures go to rsl-rl's tensorboard log at step ``iteration`` (iterations completed):
+    ``Eval/lap_completion`` (fraction of attempts), ``Eval/mean_lap_time`` and
+    ``Eval/best_lap_time`` [s] (only when a lap was completed), ``Eval/off_tracks`` (attempts
+    that ended off track) and ``Eval/collisions`` (contacts, over all attempts), and of the
+    race ``Eval/race_finished`` (1 or 0) and ``Eval/race_position`` (1 = first).
+
+    Args:
+        runner: The rsl-rl ``OnPolicyRunner`` being trained.
+        config: Its training config.
+        out: The run's output folder.
+        iteration: Iterations completed (names the recording and steps the log).
+
+    Returns:
+        The figures, keyed as logged without the ``Eval/`` prefix.
+    """
+    from h2h_racing.league.evaluate import evaluate
+    from h2h_racing.match import run_race
+    from h2h_racing.policies.trained import TrainedPolicy
+
+    out = Path(out)
+    payload = policy_payload(runner, config, training={"iterations": iteration})
+    driver = TrainedPolicy.from_payload(payload, name=f"iter_{iteration}",
+                                        source=f"{out} at iteration {iteration}")
+    env_config = config.env_config()
+    # The evaluation envs give the camera images the actor was trained on (and the recorded
+    # reward terms are the ones it was trained with).
+    env_fields = {"camera": env_config.camera, "reward": env_config.reward}
+    figures = evaluate(driver, env_config.track, episodes=config.eval_episodes,
+                       seed=config.seed, **env_fields)
+    scalars = {"lap_completion": figures.lap_completion,
+               "off_tracks": float(figures.off_tracks), "collisions": float(figures.collisions)}
+    if np.isfinite(figures.mean_lap_time):
+        scalars["mean_lap_time"] = figures.mean_lap_time
+        scalars["best_lap_time"] = figures.best_lap_time
+
+    learners = config.num_cars if config.learners is None else config.learners
+    drivers = [driver] * learners + [config.opponent] * (config.num_cars - learners)
+    save = None
+    if importlib.util.find_spec("rerun") is not None:
+        save = out / "eval" / f"iter_{iteration}.rrd"
+    else:
+        warnings.warn("rerun-sdk is not installed, so the evaluation race is not recorded; "
+                      "pip install 'h2h-racing[viz]' to record it", stacklevel=2)
+    race = run_race(env_config.track, drivers,
+                    race_type="time_trial" if config.num_cars == 1 else "head_to_head",
+                    laps=1, seed=config.seed, save=save,
+                    max_cycles=max(1, round(config.eval_race_seconds / env_config.step_dt)),
+                    **env_fields)
+    mine = next(row for row in race.rows if row["agent"] == "car_0")
+    scalars["race_finished"] = float(mine["finished"])
+    scalars["race_position"] = float(mine["position"])
+
+    writer = runner.logger.writer
+    if writer is not None:
+        for key, value in scalars.items():
+            writer.add_scalar(f"Eval/{key}", value, iteration)
+        writer.flush()
+    lap = (f"{scalars['mean_lap_time']:.2f} s" if "mean_lap_time" in scalars else "-")
+    print(f"eval at iteration {iteration}: laps {100 * figures.lap_completion:.0f} % of "
+          f"{figures.episodes}, mean lap {lap}, off track {figures.off_tracks}, race position "
+          f"{mine['position']}/{config.num_cars}" + (f" -> {save}" if save else ""))
+    return scalars
 
 
 def random_training_track(rng: np.random.Generator) -> Track:
@@ -239,6 +344,26 @@ def random_training_track(rng: np.random.Generator) -> Track:
                  description=spec.description, source="league.train.random_training_track")
 
 
+def policy_payload(runner: Any, config: TrainConfig,
+                   training: dict[str, float] | None = None) -> dict[str, Any]:
+    """The policy dict of ``runner``'s actor: weights (copied, so later training does not
+    change them), the actor's config and the configs it was trained with. It holds only
+    tensors and plain Python values (see ``save_policy``; ``TrainedPolicy.from_payload``
+    drives with it directly)."""
+    train_dict = config.rsl_rl_dict()
+    return {
+        "format": POLICY_FORMAT,
+        "actor_state_dict": {key: value.detach().clone()
+                             for key, value in runner.alg.actor.state_dict().items()},
+        "actor_cfg": train_dict["actor"],
+        "obs_groups": train_dict["obs_groups"]["actor"],
+        "observations": config.observations,
+        "env_config": _plain(config.env_config().to_dict()),
+        "train_config": _plain(dataclasses.asdict(config)),
+        "training": dict(training or {}),
+    }
+
+
 def save_policy(runner: Any, config: TrainConfig, path: str | Path,
                 training: dict[str, float] | None = None) -> Path:
     """Write the actor of ``runner`` and the configs it was trained with to ``path``.
@@ -248,18 +373,7 @@ def save_policy(runner: Any, config: TrainConfig, path: str | Path,
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    train_dict = config.rsl_rl_dict()
-    payload = {
-        "format": POLICY_FORMAT,
-        "actor_state_dict": runner.alg.actor.state_dict(),
-        "actor_cfg": train_dict["actor"],
-        "obs_groups": train_dict["obs_groups"]["actor"],
-        "observations": config.observations,
-        "env_config": _plain(config.env_config().to_dict()),
-        "train_config": _plain(dataclasses.asdict(config)),
-        "training": dict(training or {}),
-    }
-    torch.save(payload, path)
+    torch.save(policy_payload(runner, config, training), path)
     return path
 
 

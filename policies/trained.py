@@ -46,15 +46,37 @@ class TrainedPolicy:
         os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
         import torch
 
-        self.path = Path(path)
-        if not self.path.is_file():
-            raise FileNotFoundError(f"policy file not found: {self.path.resolve()}")
-        payload = torch.load(self.path, weights_only=True, map_location="cpu")
+        path = Path(path)
+        if not path.is_file():
+            raise FileNotFoundError(f"policy file not found: {path.resolve()}")
+        payload = torch.load(path, weights_only=True, map_location="cpu")
+        self._setup(payload, name or path.parent.name or path.stem, str(path))
+        self.path: Path | None = path
+
+    @classmethod
+    def from_payload(cls, payload: dict[str, Any], name: str,
+                     source: str = "<in-memory policy>") -> TrainedPolicy:
+        """A driver from a policy payload held in memory (the dict a ``policy.pt`` file holds,
+        as ``h2h_racing.league.train.policy_payload`` builds it), without a file.
+
+        Args:
+            payload: The policy dict.
+            name: Driver name shown in results.
+            source: What error messages call the policy (e.g. the training run it came from).
+        """
+        policy = cls.__new__(cls)
+        policy._setup(payload, name, source)
+        policy.path = None
+        return policy
+
+    def _setup(self, payload: Any, name: str, source: str) -> None:
         if not isinstance(payload, dict) or payload.get("format") != POLICY_FORMAT:
-            raise ValueError(f"{self.path}: not an h2h-racing policy file (expected format "
-                             f"{POLICY_FORMAT!r}, got {payload.get('format') if isinstance(payload, dict) else type(payload).__name__!r})")
+            found = payload.get("format") if isinstance(payload, dict) else type(payload).__name__
+            raise ValueError(f"{source}: not an h2h-racing policy file (expected format "
+                             f"{POLICY_FORMAT!r}, got {found!r})")
+        self.source = source
         self.payload = payload
-        self.name = name or self.path.parent.name or self.path.stem
+        self.name = name
         self.observations = payload["observations"]
         self.env_config: dict[str, Any] = payload["env_config"]
         self._actor: Any = None
@@ -67,14 +89,14 @@ class TrainedPolicy:
         for key in _OBSERVATION_KEYS:
             if getattr(cfg, key) != trained[key]:
                 raise ValueError(
-                    f"{self.path}: trained with {key}={trained[key]}, but the env has "
+                    f"{self.source}: trained with {key}={trained[key]}, but the env has "
                     f"{key}={getattr(cfg, key)}; build the env with {key}={trained[key]}")
         if self.observations == "camera":
             camera = cfg.camera.to_dict()
             for key in _CAMERA_KEYS:
                 if camera[key] != trained["camera"][key]:
                     raise ValueError(
-                        f"{self.path}: trained with camera {key}={trained['camera'][key]}, but "
+                        f"{self.source}: trained with camera {key}={trained['camera'][key]}, but "
                         f"the env's camera has {key}={camera[key]}")
             from h2h_racing.config import CameraConfig
             from h2h_racing.sensors.camera import CameraSensor

@@ -71,6 +71,66 @@ class TestPolicyFile:
         assert {row["agent"] for row in result.rows} == {"car_0", "car_1"}
 
 
+class TestEvaluationDuringTraining:
+    """Every eval_every iterations: Eval/ figures in the tensorboard log and a race recording."""
+
+    CONFIG = dataclasses.replace(SMALL, num_cars=2, learners=1, opponent="pure_pursuit",
+                                 eval_every=1, eval_episodes=2, eval_race_seconds=3.0)
+
+    @pytest.fixture(scope="class")
+    def run(self, tmp_path_factory: pytest.TempPathFactory) -> Path:
+        out = tmp_path_factory.mktemp("eval_run")
+        train(self.CONFIG, iterations=2, out=out)
+        return out
+
+    def test_each_evaluation_records_a_race_of_the_learner_and_its_opponent(
+            self, run: Path) -> None:
+        rr = pytest.importorskip("rerun")
+        assert sorted(p.name for p in (run / "eval").iterdir()) == ["iter_1.rrd", "iter_2.rrd"]
+        path = run / "eval" / "iter_2.rrd"
+        paths = set(map(str, rr.chunk.RrdReader(path).store().schema().entity_paths()))
+        assert {"/map/cars/car_0/box", "/map/cars/car_1/box", "/events"} <= paths
+        texts = [text for chunk in rr.chunk.RrdReader(path).stream()
+                 if chunk.entity_path == "/events" and not chunk.is_static
+                 for text in chunk.to_record_batch().column("TextLog:text").to_pylist()]
+        results = next(t[0] for t in texts if t[0].startswith("[results]"))
+        # The results table names car 0 after the evaluated iteration, car 1 its opponent.
+        assert "car_0 (iter_2)" in results and "car_1 (pure_pursuit)" in results
+
+    def test_figures_in_the_log_match_an_evaluation_of_the_saved_policy(
+            self, run: Path) -> None:
+        pytest.importorskip("tensorboard")
+        from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+        from h2h_racing.league.evaluate import evaluate
+
+        log = EventAccumulator(str(run))
+        log.Reload()
+        scalars = {tag: {e.step: e.value for e in log.Scalars(tag)}
+                   for tag in log.Tags()["scalars"] if tag.startswith("Eval/")}
+        for tag in ("lap_completion", "off_tracks", "collisions", "race_finished",
+                    "race_position"):
+            assert sorted(scalars[f"Eval/{tag}"]) == [1, 2], tag
+        # The evaluation after iteration 2 drove the final actor, which policy.pt holds: the
+        # same attempts (same start points and seed) give the same figures.
+        final = evaluate(str(run / "policy.pt"), "oval", episodes=2, seed=SMALL.seed)
+        assert scalars["Eval/lap_completion"][2] == pytest.approx(final.lap_completion)
+        assert scalars["Eval/off_tracks"][2] == final.off_tracks
+        assert scalars["Eval/collisions"][2] == final.collisions
+        assert scalars["Eval/race_position"][2] in (1.0, 2.0)
+
+    def test_no_evaluation_before_eval_every_iterations(
+            self, trained: tuple[Path, object]) -> None:
+        # SMALL evaluates every 50 iterations and trained 2.
+        assert not (trained[0].parent / "eval").exists()
+
+    def test_bad_eval_settings_rejected(self) -> None:
+        with pytest.raises(ValueError, match="eval_every must be an int >= 0"):
+            TrainConfig(eval_every=-1)
+        with pytest.raises(ValueError, match="eval_episodes"):
+            TrainConfig(eval_episodes=0)
+
+
 class TestConfig:
     """TrainConfig gives a fresh rsl-rl dict each time (rsl-rl mutates the one it gets)."""
 
@@ -96,8 +156,9 @@ class TestCommands:
 
         out = tmp_path / "run"
         assert main(["train", "--track", "oval", "--iterations", "2", "--envs", "8",
-                     "--out", str(out)]) == 0
+                     "--eval-every", "2", "--out", str(out)]) == 0
         assert (out / "policy.pt").is_file() and (out / "policy.onnx").is_file()
+        assert [p.name for p in (out / "eval").iterdir()] == ["iter_2.rrd"]
         capsys.readouterr()
         assert main(["evaluate", "--policy", str(out / "policy.pt"), "--track", "oval",
                      "--episodes", "3"]) == 0
@@ -128,6 +189,19 @@ class TestProcedural:
         assert track.name.startswith("random-") and runner.env.core.track is track
         # Widths are drawn in the catalogue's range [0.76, 1.07] m.
         assert 0.76 <= float(track.width.min()) <= 1.07
+
+    def test_evaluations_do_not_change_the_track_schedule(self, tmp_path: Path) -> None:
+        from h2h_racing.league.train import random_training_track
+
+        # Evaluating after every iteration splits training into 1-iteration chunks, but with
+        # track_every=2 the 2 iterations still run on the first random track only.
+        config = dataclasses.replace(SMALL, track="procedural", track_every=2, eval_every=1,
+                                     eval_episodes=1, eval_race_seconds=1.0)
+        runner = train(config, iterations=2, out=tmp_path)
+        first = random_training_track(np.random.default_rng(config.seed + 1))
+        assert runner.env.track.name == first.name
+        # Procedural runs are evaluated on the fixed start track.
+        assert len(list((tmp_path / "eval").glob("iter_*.rrd"))) == 2
 
     def test_set_track_restarts_every_copy(self) -> None:
         from h2h_racing.league.vec_env import RacingVecEnv
