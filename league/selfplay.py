@@ -108,6 +108,12 @@ class LeagueConfig:
     """Policy standard deviation at the start (and after an exploiter reset)."""
     eval_races: int = 2
     """Seeds per (learner, opponent) evaluation pairing per round, each in both seat orders."""
+    eval_recent: int = 6
+    """Snapshots each learner is evaluated against per round: the most recent ones (anchors
+    and the other learners always). Older snapshots keep their decayed payoff entries; this
+    bounds a round's cost as the pool grows."""
+    placement_tracks: tuple[str, ...] = ()
+    """Tracks of the placement races that rate snapshots; empty means ``tracks``."""
     placement_races: int = 3
     """Seeds per (snapshot, frozen player) placement pairing, each in both seat orders."""
     laps: int = 2
@@ -137,6 +143,8 @@ class LeagueConfig:
                              f"{list(self.anchors)}")
         if not self.tracks:
             raise ValueError("give at least one track")
+        if self.eval_recent < 0:
+            raise ValueError(f"LeagueConfig.eval_recent must be >= 0, got {self.eval_recent}")
         for name in ("iterations_per_round", "num_envs", "num_steps_per_env", "eval_races",
                      "placement_races", "laps", "snapshot_min_rounds", "max_rounds"):
             if getattr(self, name) < 1:
@@ -165,7 +173,7 @@ class LeagueConfig:
                                      f"allowed: name, role")
                 learners.append(LearnerSpec(**entry))
             values["learners"] = tuple(learners)
-        for key in ("tracks", "anchors"):
+        for key in ("tracks", "anchors", "placement_tracks"):
             if key in values:
                 values[key] = tuple(values[key])
         try:
@@ -182,6 +190,11 @@ class LeagueConfig:
             except tomllib.TOMLDecodeError as err:
                 raise ValueError(f"{path}: not valid TOML: {err}") from None
         return cls.from_dict(data, source=str(path))
+
+    @property
+    def rating_tracks(self) -> tuple[str, ...]:
+        """Tracks of the placement races."""
+        return self.placement_tracks or self.tracks
 
     def train_config(self, seed: int) -> Any:
         """The ``TrainConfig`` of every learner: two cars, one learner, race tracks."""
@@ -493,12 +506,15 @@ class League:
         return [job for job in jobs if job is not None]
 
     def _evaluate(self, round_index: int, track: str) -> None:
-        """Each learner against every pool member and every other learner."""
-        pool = [p.name for p in self._pool()]
-        learners = [s.name for s in self.config.learners]
-        pairs = [(learner, other) for learner in learners for other in pool]
+        """Each learner against the anchors, the most recent snapshots and the other
+        learners."""
+        cfg = self.config
+        snapshots = [s.name for s in self.snapshots()]
+        opponents = list(cfg.anchors) + (snapshots[-cfg.eval_recent:] if cfg.eval_recent else [])
+        learners = [s.name for s in cfg.learners]
+        pairs = [(learner, other) for learner in learners for other in opponents]
         pairs += [(a, b) for i, a in enumerate(learners) for b in learners[i + 1:]]
-        self._play(self._jobs("eval", round_index, pairs, track, self.config.eval_races))
+        self._play(self._jobs("eval", round_index, pairs, track, cfg.eval_races))
 
     def _play(self, jobs: list[Job]) -> None:
         for _job_done, records in self.backend.map(run_job, jobs):
@@ -521,14 +537,16 @@ class League:
                               f"{spec.name}.reset": "1" if reset else "0"})
 
     def _place(self) -> None:
-        """Placement races of every snapshot against every older frozen player (anchors and
-        earlier snapshots) that are not stored yet; then refit the ratings."""
-        older = list(self.config.anchors)
-        pairs = []
+        """Placement races that are not stored yet: the anchors against each other, and every
+        snapshot against every older frozen player (anchors and earlier snapshots); then refit
+        the ratings."""
+        anchors = list(self.config.anchors)
+        pairs = [(a, b) for i, a in enumerate(anchors) for b in anchors[i + 1:]]
+        older = list(anchors)
         for snapshot in self.snapshots():
             pairs += [(snapshot.name, other) for other in older]
             older.append(snapshot.name)
-        jobs = [job for track in self.config.tracks
+        jobs = [job for track in self.config.rating_tracks
                 for job in self._jobs("placement", None, pairs, track,
                                       self.config.placement_races)]
         if jobs:

@@ -78,9 +78,10 @@ def test_smoke_league_snapshots_rates_and_resumes(tmp_path):
     # (1 iteration x 8 copies x 8 steps per round).
     steps = {s.name: s.training_steps for s in snapshots}
     assert steps["main_v1"] == 64 and steps["main_v2"] == 128
-    # Every snapshot was placed against every older frozen player: 2 anchors + k earlier
-    # snapshots for the k-th snapshot, 1 seed x 2 seat orders each -> 2 (2 + 3 + 4 + 5) = 28.
-    assert store.count_matches(context="league:smoke:placement") == 28
+    # Placement: the 2 anchors against each other (1 pair), and every snapshot against every
+    # older frozen player (2 anchors + k - 1 earlier snapshots for the k-th): 1 seed x 2 seat
+    # orders each -> 2 (1 + 2 + 3 + 4 + 5) = 30.
+    assert store.count_matches(context="league:smoke:placement") == 30
     history = store.rating_history()
     assert history["racing_line"][-1][1] == pytest.approx(1000.0)
     assert set(history) == {"racing_line", "pure_pursuit", *steps}
