@@ -6,6 +6,7 @@
     h2h-racing train --out runs/NAME [--track T] [--obs state|camera] [--opponents none|D]
                      [--eval-every 50]
     h2h-racing evaluate --policy runs/NAME/policy.pt [--track T] [--episodes 20]
+                        [--against DRIVERS [--races 20] [--laps 3]]
     h2h-racing tracks list
     h2h-racing tracks show NAME [--out NAME.png]
     h2h-racing tracks import FILE [--name NAME] [--scale S | --scale L,W] [--reverse] [--out F]
@@ -167,12 +168,48 @@ def _cmd_train(args: argparse.Namespace) -> int:
 def _cmd_evaluate(args: argparse.Namespace) -> int:
     from h2h_racing.league.evaluate import Evaluation, evaluate
 
+    if args.against:
+        return _evaluate_head_to_head(args)
     print(f"{args.track}: {args.episodes} one-lap attempts from start points spread round the "
           "lap (training rules: an infraction ends the attempt)")
     print(Evaluation.header())
     for driver in [args.policy, *args.baseline.split(",")]:
         if driver:
             print(evaluate(driver, args.track, episodes=args.episodes, seed=args.seed).row())
+    return 0
+
+
+def _evaluate_head_to_head(args: argparse.Namespace) -> int:
+    from h2h_racing.league.evaluate import head_to_head
+    from h2h_racing.policies import make_driver
+    from h2h_racing.track_io import list_tracks
+
+    if args.races < 2 or args.races % 2:
+        print(f"error: --races must be an even number >= 2 (every start in both seat orders), "
+              f"got {args.races}", file=sys.stderr)
+        return 2
+    tracks = list_tracks() if args.track == "all" else args.track.split(",")
+    policy = make_driver(args.policy)
+    print(f"{args.policy}: {args.races} two-car races of {args.laps} laps per track and opponent "
+          f"(race rules: 5 s penalties), every start point in both seat orders")
+    print(f"{'track':<16} {'opponent':<16} {'won':>9} {'overtakes':>10} {'crashes':>8} "
+          f"{'finished':>9}")
+    totals: dict[str, list[int]] = {}
+    for opponent in args.against.split(","):
+        for track in tracks:
+            result = head_to_head(policy, make_driver(opponent), track, races=args.races,
+                                  laps=args.laps, seed=args.seed)
+            row = [result.wins[0], result.overtakes[0], result.overtakes[1],
+                   result.crashes[0], result.crashes[1], result.races]
+            totals[opponent] = [a + b for a, b in zip(totals.get(opponent, [0] * 6), row)]
+            print(f"{result.track:<16} {opponent:<16} {result.wins[0]:>4} / {result.races:<3} "
+                  f"{result.overtakes[0]:>4} / {result.overtakes[1]:<3} "
+                  f"{result.crashes[0]:>3} / {result.crashes[1]:<2} "
+                  f"{result.finished[0]:>4} / {result.finished[1]:<2}")
+    for opponent, (won, ours, theirs, crash, crashed, races) in totals.items():
+        print(f"{'all':<16} {opponent:<16} {won:>4} / {races:<3} {ours:>4} / {theirs:<3} "
+              f"{crash:>3} / {crashed:<2} ({100 * won / races:.0f} % won)")
+    print("overtakes, crashes caused and finishes: the policy's / the opponent's")
     return 0
 
 
@@ -246,6 +283,13 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--seed", type=int, default=0)
     evaluate.add_argument("--baseline", default="racing_line",
                           help="comma-separated drivers evaluated on the same start points")
+    evaluate.add_argument("--against", default=None, metavar="DRIVERS",
+                          help="comma-separated opponents: race the policy head to head against "
+                               "each (2-car races; --track may be a comma list or 'all')")
+    evaluate.add_argument("--races", type=int, default=20,
+                          help="races per track and opponent with --against (even: both seat "
+                               "orders of every start)")
+    evaluate.add_argument("--laps", type=int, default=3, help="laps per race with --against")
     evaluate.set_defaults(func=_cmd_evaluate)
 
     camera = sub.add_parser("camera", help="save what a car's camera sees as a PNG")

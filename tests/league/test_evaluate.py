@@ -71,3 +71,28 @@ class TestStartPoints:
         assert core.distance[0, 0] == 5.0 and core.lap_origin[0, 0] == 5.0
         start_xy = track.point_at(np.array([5.0]))[0]
         assert np.allclose(core.position[0, 0], start_xy)
+
+
+class TestEvaluateCli:
+    """``h2h-racing evaluate --against``: head-to-head rows per track and opponent."""
+
+    def test_rows_and_totals(self, capsys) -> None:
+        from h2h_racing.cli import main
+
+        assert main(["evaluate", "--policy", "racing_line", "--against", "pure_pursuit",
+                     "--track", "oval", "--races", "2", "--laps", "1"]) == 0
+        lines = capsys.readouterr().out.splitlines()
+        rows = [line for line in lines if line.split()[:2] == ["oval", "pure_pursuit"]]
+        total = [line for line in lines if line.split()[:2] == ["all", "pure_pursuit"]]
+        assert len(rows) == 1 and len(total) == 1
+        # The racing line laps the oval in ~6 s against pure pursuit's ~8.7 s (policies/README):
+        # it wins both races, one from each grid slot, and the total repeats the single track.
+        assert rows[0].split()[2:5] == ["2", "/", "2"]
+        assert "(100 % won)" in total[0]
+
+    def test_odd_race_count_is_refused(self, capsys) -> None:
+        from h2h_racing.cli import main
+
+        assert main(["evaluate", "--policy", "racing_line", "--against", "pure_pursuit",
+                     "--track", "oval", "--races", "3"]) == 2
+        assert "--races must be an even number" in capsys.readouterr().err
