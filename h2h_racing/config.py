@@ -474,6 +474,17 @@ class EnvConfig:
     """Draw the bots' start positions (at least ``BOT_MIN_GAP`` = 2 m apart) and lanes at every
     reset (``RANDOMIZE_BOT_CAR_LOCATIONS``) instead of spacing them evenly on alternating
     lanes."""
+    round_robin_starts: bool = False
+    """Move each env copy's start forward by ``round_robin_advance`` of the lap at every reset
+    of that copy (DeepRacer's training starts, ``CHANGE_START_POSITION``); the first episode
+    starts on the start line."""
+    round_robin_advance: float = 0.05
+    """Start advance per episode with ``round_robin_starts``, as a fraction of the lap
+    (``ROUND_ROBIN_ADVANCE_DIST``)."""
+    alternate_direction: bool = False
+    """Drive the track the other way round on every second episode
+    (``ALTERNATE_DRIVING_DIRECTION``); DeepRacer params then report ``is_reversed``. The first
+    episode drives the track's own direction."""
     grid: Literal["random", "fixed"] = "random"
     """Start-slot assignment at reset: ``"random"`` draws a permutation from the seed
     (seat fairness), ``"fixed"`` puts car i in slot i."""
@@ -552,9 +563,14 @@ class EnvConfig:
         _check(isinstance(self.bot_penalty, (int, float)) and math.isfinite(self.bot_penalty)
                and self.bot_penalty >= 0, owner, "bot_penalty", self.bot_penalty,
                "a finite number >= 0 [s]")
-        for name in ("bot_lane_change", "randomize_bots"):
+        for name in ("bot_lane_change", "randomize_bots", "round_robin_starts",
+                     "alternate_direction"):
             _check(isinstance(getattr(self, name), bool), owner, name, getattr(self, name),
                    "a bool")
+        _check(isinstance(self.round_robin_advance, (int, float))
+               and math.isfinite(self.round_robin_advance)
+               and 0.0 < self.round_robin_advance < 1.0, owner, "round_robin_advance",
+               self.round_robin_advance, "a fraction of the lap in (0, 1) (DeepRacer: 0.05)")
         _check(self.grid in ("random", "fixed"), owner, "grid", self.grid, "'random' or 'fixed'")
         _check(isinstance(self.physics_substeps, int) and 1 <= self.physics_substeps <= 32,
                owner, "physics_substeps", self.physics_substeps, "an int in [1, 32]")

@@ -17,6 +17,11 @@ they have no laps, ranks or rewards. A contact between a car and a bot is judged
 DeepRacer judges it: the one behind along the track is at fault. A car that runs into a bot
 ahead is crashed (the rules' usual crash infraction); a bot that runs into a car ahead makes
 every bot of that env copy stand still for ``bot_penalty`` seconds, and the car goes free.
+
+Training starts (DeepRacer's): with ``round_robin_starts`` each reset of a copy moves its start
+point ``round_robin_advance`` of a lap further round; with ``alternate_direction`` every second
+episode drives the track the other way round (``RaceCore.reset(reverse=...)``; every copy of a
+core drives the same direction, so the flip needs a reset of every copy at once).
 """
 
 from __future__ import annotations
@@ -108,7 +113,11 @@ class RaceCore:
             raise ValueError(f"num_envs must be an int >= 1, got {num_envs!r}")
         self.config = config
         self.rules = config.race_rules
-        self.track = track
+        self.forward_track = track
+        """The track as given (driven in its own direction when not reversed)."""
+        self._reverse_track: Track | None = None
+        self.is_reversed = False
+        """Whether the current episodes drive ``forward_track`` the other way round."""
         self.num_envs = num_envs
         self.num_cars = config.num_cars
         self.num_obstacles = config.obstacle_count
@@ -116,10 +125,10 @@ class RaceCore:
         """Bot cars per env copy B."""
         self.dt = config.step_dt
         self.model = SingleTrackModel(config.car)
-        self._projector = track.projector()
-        self.lookup = TrackLookup.from_track(track)
-        """Uniform tables of the track's fields for the compiled kernels."""
-        self.inner_sign = 1 if track.is_ccw else -1
+        self._use_track(track)
+        self.episodes = np.zeros(num_envs, dtype=np.int64)
+        """Episodes started by each copy since the last seeded reset, (E,) (round-robin starts
+        and alternating directions count them)."""
         car = config.car
         # Wheel centres in the body frame: rear axle at -l_r, front at +l_f, +-track/2.
         half_track = 0.5 * car.wheel_track
@@ -148,6 +157,23 @@ class RaceCore:
         """Steps after which every car is truncated (the env may change it at run time)."""
         self.world: PhysicsWorld | None = None
         self._allocate()
+
+    def _use_track(self, track: Track) -> None:
+        """Drive ``track`` (one direction of ``forward_track``) from the next spawn on."""
+        self.track = track
+        """The track in the current driving direction (``forward_track`` or its reverse)."""
+        self._projector = track.projector()
+        self.lookup = TrackLookup.from_track(track)
+        """Uniform tables of the track's fields for the compiled kernels."""
+        self.inner_sign = 1 if track.is_ccw else -1
+
+    def _set_direction(self, reverse: bool) -> None:
+        if reverse == self.is_reversed:
+            return
+        if reverse and self._reverse_track is None:
+            self._reverse_track = self.forward_track.reversed()
+        self._use_track(self._reverse_track if reverse else self.forward_track)
+        self.is_reversed = bool(reverse)
 
     def _grid_length(self) -> float:
         """How far the start grid reaches behind its first slot [m]."""
@@ -329,22 +355,33 @@ class RaceCore:
         self.rng = np.random.default_rng(seed)
 
     def reset(self, seed: int | None = None, slots: IntArray | None = None,
-              start: FloatArray | None = None) -> None:
+              start: FloatArray | None = None, reverse: bool | None = None) -> None:
         """Reset every env copy and build a new pymunk Space.
 
         Args:
             seed: Seed of a new random generator; None keeps the current generator, so a
-                later unseeded reset continues the seeded sequence deterministically.
+                later unseeded reset continues the seeded sequence deterministically. A seed
+                also restarts the episode count (``episodes``) of the training starts, so the
+                same seed gives the same first state.
             slots: Grid slot of each car, shape (N,) or (E, N); None draws them as
                 ``config.grid`` says.
             start: Arc position of grid slot 0 in each copy, shape (E,) [m]; None puts it on
-                the start line. Under ``race`` rules laps then count from that point (the race
-                starts and finishes there); under ``training`` rules from each car's own start
-                (DeepRacer's training starts round the lap). Distances stay measured from the
-                track's start line.
+                the start line, or ``round_robin_advance`` of a lap further per episode already
+                started with ``round_robin_starts``. Under ``race`` rules laps then count from
+                that point (the race starts and finishes there); under ``training`` rules from
+                each car's own start (DeepRacer's training starts round the lap). Distances
+                stay measured from the track's start line, in the driving direction.
+            reverse: Drive the track the other way round (True) or its own way (False); None
+                follows ``alternate_direction`` (reversed on odd episodes) or else drives its
+                own way. Arc positions, lanes and progress are then measured in the driving
+                direction (``track`` is ``forward_track.reversed()``, same start line).
         """
         if seed is not None:
             self.seed(seed)
+            self.episodes[:] = 0
+        if reverse is None:
+            reverse = bool(self.config.alternate_direction and self.episodes[0] % 2 == 1)
+        self._set_direction(bool(reverse))
         car = self.config.car
         self.world = PhysicsWorld(
             num_cars=self.num_envs * self.num_cars,
@@ -371,6 +408,14 @@ class RaceCore:
         mask = np.asarray(mask, dtype=bool)
         if not mask.any():
             return
+        if self.config.alternate_direction:
+            if not mask.all():
+                raise ValueError(
+                    "alternate_direction flips the driving direction of every env copy of a "
+                    "core at once, so copies cannot be reset one by one; reset all of them "
+                    "(reset_envs with an all-True mask, or reset()), or use round_robin_starts "
+                    "without alternate_direction")
+            self._set_direction(bool(self.episodes[0] % 2 == 1))
         self._spawn(mask, slots, start)
 
     def _spawn(self, mask: BoolArray, slots: IntArray | None,
@@ -387,9 +432,13 @@ class RaceCore:
         offset, lane = spawn.grid_slots(n, cfg.grid_spacing, self.inner_sign)
         car_offset = offset[slot]
         line = np.zeros((m, 1))
+        if start is None and cfg.round_robin_starts:
+            # DeepRacer: start_ndist += ROUND_ROBIN_ADVANCE_DIST at every new episode.
+            start = np.mod(self.episodes[mask] * cfg.round_robin_advance, 1.0) * track.length
         if start is not None:
             line = np.asarray(start, dtype=np.float64).reshape(m, 1)
             car_offset = car_offset + line
+        self.episodes[mask] += 1
         car_lane = lane[slot]
         s = np.mod(car_offset, track.length)
         d = spawn.lane_offset(track, s, car_lane)

@@ -240,13 +240,12 @@ class RacingEnv(ParallelEnv):
         self._chosen: list[int] = []
         self._deepracer: DeepRacerReward | None = None
         self._params: ParamsBuilder | None = None
+        # One params builder per driving direction (its centre line is in driving order).
+        self._params_by_direction: dict[bool, ParamsBuilder] = {}
         if reward_function is not None:
             self._deepracer = DeepRacerReward(reward_function, config.num_cars,
                                               self.possible_agents)
-            self._params = ParamsBuilder(
-                self.track, config.car, config.num_cars,
-                obstacle_size=(config.obstacle_length, config.obstacle_width),
-                camera_hfov_deg=config.camera.hfov_deg, camera_forward_m=config.camera.forward_m)
+            self._params = self._params_builder(False)
         self._weights = rewards.weights_of(config.reward)
         no_car = np.zeros((1, config.num_cars), dtype=bool)
         self._no_events = types.SimpleNamespace(off_track=no_car, crashed=no_car,
@@ -296,7 +295,10 @@ class RacingEnv(ParallelEnv):
                 raise ValueError(f"options['grid'] must list one slot per car "
                                  f"({self.config.num_cars}), got {options['grid']!r}")
         self.core.reset(seed=seed, slots=slots)
+        # With alternate_direction the core may now drive the track the other way round.
+        self.track = self.core.track
         if self._params is not None:
+            self._params = self._params_builder(self.core.is_reversed)
             self._params.reset()
         if self._lidar is not None and self.config.lidar.noise_std > 0:
             # The lidar's noise has a generator of its own, seeded from the env's, so that
@@ -357,6 +359,19 @@ class RacingEnv(ParallelEnv):
             self._live = set(self.agents)
         obs = {a: obs[a] for a in agents}
         return obs, rewards_out, terminations, truncations, infos
+
+    def _params_builder(self, reversed_: bool) -> ParamsBuilder:
+        """The DeepRacer params builder of one driving direction (built once)."""
+        builder = self._params_by_direction.get(reversed_)
+        if builder is None:
+            config = self.config
+            builder = ParamsBuilder(
+                self.core.track, config.car, config.num_cars,
+                obstacle_size=(config.obstacle_length, config.obstacle_width),
+                is_reversed=reversed_, camera_hfov_deg=config.camera.hfov_deg,
+                camera_forward_m=config.camera.forward_m)
+            self._params_by_direction[reversed_] = builder
+        return builder
 
     def _deepracer_rewards(self, agents: list[str], racing: npt.NDArray[np.bool_],
                            steer: npt.NDArray[np.float64], events: Any,
