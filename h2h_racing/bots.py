@@ -23,7 +23,8 @@ and the bot's heading is the track's plus the angle of its lateral motion::
 
 The next change starts a uniform draw from [``gap_min``, ``gap_max``] seconds after the end
 of the last one (the first one that long after the start), as in DeepRacer. Every function
-works on ``(E, B)`` arrays (env copies, bots) at once.
+works on ``(E, B)`` arrays (env copies, bots) at once; the poses are evaluated in compiled
+kernels from the track's uniform tables (``TrackLookup``: centre point, heading, widths).
 """
 
 from __future__ import annotations
@@ -33,9 +34,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
+from numba import njit
+
+from h2h_racing.track_lookup import lookup, wrap_angle
 
 if TYPE_CHECKING:
-    from h2h_racing.track import Track
+    from h2h_racing.track_lookup import TrackLookup
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -49,15 +53,15 @@ def lane_blend(u: FloatArray) -> FloatArray:
     return 0.5 - 0.5 * np.cos(np.pi * np.clip(u, 0.0, 1.0))
 
 
-def bot_poses(track: Track, distance: FloatArray, lane_from: FloatArray,
+def bot_poses(tables: TrackLookup, start: FloatArray, lane_from: FloatArray,
               lane_to: FloatArray, change_start: FloatArray, clock: FloatArray,
               duration: float, speed: float,
-              ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+              ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
     """Return where the bots are at their copy's bot clock.
 
     Args:
-        track: The track in driving order.
-        distance: Unwrapped arc position of each bot, (E, B) [m].
+        tables: The track's tables (``TrackLookup``), in driving order.
+        start: Unwrapped arc position of each bot at clock 0, (E, B) [m].
         lane_from: Lane each bot's last lane change started from, (E, B) (+1 / -1).
         lane_to: Lane it goes to (or is in), (E, B).
         change_start: Bot clock at which that change started, (E, B) [s] (-inf: none yet).
@@ -66,22 +70,95 @@ def bot_poses(track: Track, distance: FloatArray, lane_from: FloatArray,
         speed: Bot speed v [m/s].
 
     Returns:
-        ``(s (E, B) [m in [0, L)], d (E, B) [m, left +], position (E, B, 2) [m],
-        yaw (E, B) [rad in [-pi, pi)])``.
+        ``(distance (E, B) [m, unwrapped], s (E, B) [m in [0, L)], d (E, B) [m, left +],
+        position (E, B, 2) [m], yaw (E, B) [rad in [-pi, pi)])``.
     """
-    u = (clock[:, None] - change_start) / duration
-    moving = (u > 0.0) & (u < 1.0)
-    step = lane_to - lane_from
-    lane = lane_from + step * lane_blend(u)
-    rate = np.where(moving, step * (0.5 * math.pi / duration)
-                    * np.sin(math.pi * np.clip(u, 0.0, 1.0)), 0.0)
-    s = np.mod(distance, track.length)
-    left, right = track.half_widths_at(s)
-    half = 0.5 * np.where(lane >= 0.0, left, right)
-    d = lane * half
-    yaw = track.heading_at(s) + np.arctan2(rate * half, speed)
-    yaw = yaw - 2.0 * math.pi * np.floor((yaw + math.pi) / (2.0 * math.pi))
-    return s, d, track.point_at(s, d), yaw
+    shape = np.shape(start)
+    distance, s, d, yaw = (np.empty(shape) for _ in range(4))
+    position = np.zeros((*shape, 2))
+    moved = np.zeros(shape[0])
+    scratch = np.zeros((shape[0], shape[1], 2))
+    command = np.zeros((shape[0] * shape[1], 3))
+    move_kernel(np.ascontiguousarray(start, dtype=np.float64), lane_from, lane_to,
+                change_start, np.asarray(clock, dtype=np.float64), moved, duration, speed, 0.0,
+                tables.x, tables.y, tables.heading, tables.width_left, tables.width_right,
+                tables.inv_ds, tables.length, distance, s, d, position, yaw, scratch,
+                np.zeros(shape), command)
+    return distance, s, d, position, yaw
+
+
+@njit(cache=True)
+def advance_clock_kernel(time, steps, done, pause_until, dt, clock, moved,
+                         next_change):  # pragma: no cover
+    """Advance each copy's bot clock over the coming step; return whether a change is due.
+
+    The copy's sim clock goes from ``time[e]`` to ``(steps[e] + 1) dt`` when one of its cars
+    is not done (else it stops); the bots drive the part of that interval after
+    ``pause_until[e]``: ``moved[e] = max(0, t_after - max(time[e], pause_until[e]))`` [s].
+    """
+    any_due = False
+    for e in range(clock.shape[0]):
+        active = False
+        for i in range(done.shape[1]):
+            active = active or not done[e, i]
+        t_after = (steps[e] + 1) * dt if active else time[e]
+        m = max(t_after - max(time[e], pause_until[e]), 0.0)
+        moved[e] = m
+        clock[e] += m
+        for j in range(next_change.shape[1]):
+            if next_change[e, j] <= clock[e]:
+                any_due = True
+    return any_due
+
+
+@njit(cache=True)
+def move_kernel(start, lane_from, lane_to, change_start, clock, moved, duration, speed,
+                inv_dt, x_tab, y_tab, heading_tab, left_tab, right_tab, inv_ds, length,
+                distance, s, d, position, yaw, velocity, bot_speed,
+                command):  # pragma: no cover
+    """The bots' poses at their clocks (module docstring), from the track's tables.
+
+    ``position`` and ``yaw`` are read (the poses at the start of the step) and overwritten;
+    ``velocity`` (E, B, 2) [m/s] and ``command`` (E * B, 3) = (vx, vy, omega) get the
+    velocities that carry each bot from the old pose to the new one in ``1 / inv_dt``
+    seconds, and ``bot_speed`` (E, B) [m/s] the speed along the track, ``speed * moved *
+    inv_dt`` (with ``inv_dt = 0`` all three are zero: a placement, not a step).
+    """
+    num_envs, num_bots = start.shape
+    half_pi_t = 0.5 * math.pi / duration
+    for e in range(num_envs):
+        for j in range(num_bots):
+            dist = start[e, j] + speed * clock[e]
+            distance[e, j] = dist
+            sj = dist - length * math.floor(dist / length)
+            s[e, j] = sj
+            u = (clock[e] - change_start[e, j]) / duration
+            uc = min(max(u, 0.0), 1.0)
+            step = lane_to[e, j] - lane_from[e, j]
+            lane = lane_from[e, j] + step * (0.5 - 0.5 * math.cos(math.pi * uc))
+            rate = step * half_pi_t * math.sin(math.pi * uc) if 0.0 < u < 1.0 else 0.0
+            if lane >= 0.0:
+                half = 0.5 * lookup(left_tab, sj, inv_ds, length)
+            else:
+                half = 0.5 * lookup(right_tab, sj, inv_ds, length)
+            dj = lane * half
+            d[e, j] = dj
+            psi = lookup(heading_tab, sj, inv_ds, length)
+            px = lookup(x_tab, sj, inv_ds, length) - dj * math.sin(psi)
+            py = lookup(y_tab, sj, inv_ds, length) + dj * math.cos(psi)
+            new_yaw = wrap_angle(psi + math.atan2(rate * half, speed))
+            k = e * num_bots + j
+            vx = (px - position[e, j, 0]) * inv_dt
+            vy = (py - position[e, j, 1]) * inv_dt
+            velocity[e, j, 0] = vx
+            velocity[e, j, 1] = vy
+            command[k, 0] = vx
+            command[k, 1] = vy
+            command[k, 2] = wrap_angle(new_yaw - yaw[e, j]) * inv_dt
+            bot_speed[e, j] = speed * moved[e] * inv_dt
+            position[e, j, 0] = px
+            position[e, j, 1] = py
+            yaw[e, j] = new_yaw
 
 
 def schedule_lane_changes(clock: FloatArray, next_change: FloatArray, lane_from: FloatArray,

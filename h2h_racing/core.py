@@ -303,6 +303,7 @@ class RaceCore:
         """Bot velocities over the last step, (E, B, 2), m/s (world frame)."""
         self.bot_speed = zeros((e, b))
         """Bot speed along the track over the last step, (E, B), m/s (0 while paused)."""
+        self._bot_moved = zeros(e)
         self.final_position = zeros((e, n, 2))
         """Where each car was when its episode ended, before it was parked, (E, N, 2), metres
         (logs and DeepRacer params of the last step read it; stale while the car races)."""
@@ -511,50 +512,43 @@ class RaceCore:
         self.bot_pause_until[mask] = 0.0
         self.bot_pauses[mask] = 0
         self.bot_start[mask] = start
-        self.bot_distance[mask] = start
         self.bot_lane[mask] = lane
         self.bot_lane_from[mask] = lane
         self.bot_change_start[mask] = -np.inf
         self.bot_next_change[mask] = first
         self.bot_velocity[mask] = 0.0
         self.bot_speed[mask] = 0.0
-        s, d, position, yaw = bots.bot_poses(
-            track, start, lane, lane, self.bot_change_start[mask], np.zeros(m),
+        distance, s, d, position, yaw = bots.bot_poses(
+            self.lookup, start, lane, lane, self.bot_change_start[mask], np.zeros(m),
             self._bot_duration, cfg.bot_speed)
+        self.bot_distance[mask] = distance
         self.bot_s[mask] = s
         self.bot_d[mask] = d
         self.bot_position[mask] = position
         self.bot_yaw[mask] = yaw
 
-    def _move_bots(self, active: BoolArray) -> None:
+    def _move_bots(self) -> None:
         """Advance the bots of every copy over the coming step and command their bodies.
 
         A copy's bot clock advances by the part of the step after its bots' pause (none once
         every car of the copy is done, when its clock stops too); the bodies get the velocity
         that carries them from their pose now to their pose at the end of the step.
         """
-        cfg, dt = self.config, self.dt
-        t_before = self.time
-        t_after = np.where(active, (self.steps + 1) * dt, t_before)
-        moved = np.clip(t_after - np.maximum(t_before, self.bot_pause_until), 0.0, None)
-        self.bot_clock += moved
-        bots.schedule_lane_changes(self.bot_clock, self.bot_next_change, self.bot_lane_from,
-                                   self.bot_lane, self.bot_change_start, self._bot_duration,
-                                   cfg.bot_lane_change_min, cfg.bot_lane_change_max, self.rng)
-        self.bot_distance = self.bot_start + cfg.bot_speed * self.bot_clock[:, None]
-        s, d, position, yaw = bots.bot_poses(
-            self.track, self.bot_distance, self.bot_lane_from, self.bot_lane,
-            self.bot_change_start, self.bot_clock, self._bot_duration, cfg.bot_speed)
-        inv_dt = 1.0 / dt
-        self.bot_velocity = (position - self.bot_position) * inv_dt
-        turn = yaw - self.bot_yaw
-        turn -= 2.0 * math.pi * np.floor((turn + math.pi) / (2.0 * math.pi))
-        self.bot_speed = np.broadcast_to((cfg.bot_speed * inv_dt) * moved[:, None],
-                                         s.shape).copy()
-        command = self.world.bot_command
-        command[:, 0:2] = self.bot_velocity.reshape(-1, 2)
-        command[:, 2] = (turn * inv_dt).reshape(-1)
-        self.bot_s, self.bot_d, self.bot_position, self.bot_yaw = s, d, position, yaw
+        cfg, lut = self.config, self.lookup
+        moved = self._bot_moved
+        if bots.advance_clock_kernel(self.time, self.steps, self.done, self.bot_pause_until,
+                                     self.dt, self.bot_clock, moved, self.bot_next_change):
+            bots.schedule_lane_changes(
+                self.bot_clock, self.bot_next_change, self.bot_lane_from, self.bot_lane,
+                self.bot_change_start, self._bot_duration, cfg.bot_lane_change_min,
+                cfg.bot_lane_change_max, self.rng)
+        bots.move_kernel(self.bot_start, self.bot_lane_from, self.bot_lane,
+                         self.bot_change_start, self.bot_clock, moved, self._bot_duration,
+                         cfg.bot_speed, 1.0 / self.dt, lut.x, lut.y, lut.heading,
+                         lut.width_left, lut.width_right, lut.inv_ds, lut.length,
+                         self.bot_distance, self.bot_s, self.bot_d, self.bot_position,
+                         self.bot_yaw, self.bot_velocity, self.bot_speed,
+                         self.world.bot_command)
 
     def _sync_physics(self) -> None:
         """Write every body's pose and velocity into pymunk (after resets and teleports)."""
@@ -598,7 +592,7 @@ class RaceCore:
         # Phase 1: dynamics for all cars, the bots' scripted motion, then contacts and
         # integration in pymunk.
         if self.num_bots:
-            self._move_bots(~self.done.all(axis=1))
+            self._move_bots()
         self.model.step_into(
             self.yaw.reshape(-1), self.velocity.reshape(-1, 2), self.yaw_rate.reshape(-1),
             self.steer.reshape(-1), steer_command.reshape(-1), speed_command.reshape(-1),
