@@ -234,7 +234,8 @@ class PhysicsWorld:
 
         Returns:
             ``(a, b)``: body indices (cars 0..C-1, then obstacles C..C+O-1, then bots
-            C+O..C+O+Q-1), shape (P,) each, in the order pymunk reported them (deterministic for a given Space).
+            C+O..C+O+Q-1), shape (P,) each, in the order pymunk reported them
+            (deterministic for a given Space).
         """
         if not self._begun:
             return _EMPTY, _EMPTY

@@ -9,8 +9,8 @@ the spectator renderer or on ``render_mode``:
 2. **Ground** below the horizon: a greyscale texture of the whole track (surface, painted
    border lines, dashed centre line, start line, floor) pre-rendered once, warped into the
    image with the ground-plane homography of the camera's pose (``cv2.warpPerspective``).
-3. **Boxes**: the other cars, the obstacles and the bot cars as solid 3-D boxes. Their visible faces are
-   clipped to the near plane and the image in a compiled kernel and filled with
+3. **Boxes**: the other cars, the obstacles and the bot cars as solid 3-D boxes. Their visible
+   faces are clipped to the near plane and the image in a compiled kernel and filled with
    ``cv2.fillConvexPoly``, far boxes first (painter's order), so nearer boxes hide farther ones.
 
 Camera frame (OpenCV convention): ``x_c`` right, ``y_c`` down, ``z_c`` along the optical axis.

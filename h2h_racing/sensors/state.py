@@ -70,8 +70,9 @@ def state_observation(core: RaceCore) -> npt.NDArray[np.float32]:
                     state_size(cfg.opponent_slots, cfg.obstacle_slots)), dtype=np.float32)
     _state_kernel(core.s, core.d, core.yaw, core.velocity, core.yaw_rate, core.steer,
                   core.speed, core.rank, core._racing, core.done, core.obstacle_s,
-                  core.obstacle_d, core.bot_s, core.bot_d, core.bot_speed, lut.heading, lut.curvature, lut.width_left, lut.width_right,
-                  lut.inv_ds, lut.length, cfg.car.max_speed, cfg.car.max_steer,
+                  core.obstacle_d, core.bot_s, core.bot_d, core.bot_speed, lut.heading,
+                  lut.curvature, lut.width_left, lut.width_right, lut.inv_ds, lut.length,
+                  cfg.car.max_speed, cfg.car.max_steer,
                   cfg.opponent_slots, cfg.obstacle_slots, LOOKAHEAD, out)
     return out
 
@@ -96,8 +97,9 @@ def _take_nearest(distance):  # pragma: no cover
 
 @njit(cache=True)
 def _state_kernel(s, d, yaw, velocity, yaw_rate, steer, speed, rank, racing, done,
-                  obstacle_s, obstacle_d, bot_s, bot_d, bot_speed, heading, curvature, width_left, width_right,
-                  inv_ds, length, max_speed, max_steer, m_slots, k_slots, lookahead,
+                  obstacle_s, obstacle_d, bot_s, bot_d, bot_speed, heading, curvature,
+                  width_left, width_right, inv_ds, length, max_speed, max_steer, m_slots,
+                  k_slots, lookahead,
                   out):  # pragma: no cover
     """Compiled loop over env copies and cars filling ``out`` (E, N, F)."""
     num_envs, num_cars = s.shape
