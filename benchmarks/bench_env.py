@@ -1,6 +1,6 @@
 """Throughput of the ParallelEnv and of the batched core; prints figures, asserts nothing.
 
-    python benchmarks/bench_env.py            # about 30 s
+    python benchmarks/bench_env.py            # about 60 s
     python benchmarks/bench_env.py --quick    # a few seconds, for a smoke run
 
 What is timed:
@@ -8,6 +8,9 @@ What is timed:
   five dicts out, with observations, rewards and infos), in a running race.
 - Batched core, 512 env copies x 2 cars: ``core.step`` + the state observation + the
   built-in reward, i.e. everything a training VecEnv needs per step, over all copies.
+- The same two with 3 bot cars per env copy (``race_type="head_to_bot"``, lane changes on):
+  the cost of the bots' scripted motion, their kinematic bodies and the larger sensor and
+  observation candidate sets.
 - Peak memory (max resident set size) of the process.
 
 The cars are driven by a simple centre-line controller computed from the state (its cost is
@@ -42,9 +45,10 @@ def centre_controller(core: RaceCore) -> tuple[np.ndarray, np.ndarray]:
     return steer, np.full(core.s.shape, 2.5)
 
 
-def bench_parallel_env(track: str, seconds: float) -> float:
+def bench_parallel_env(track: str, seconds: float, num_bots: int = 0) -> float:
     """Return env-steps/s of the ParallelEnv with 2 cars and state observations."""
-    env = h2h_racing.parallel_env(track=track, num_cars=2, rules=ENDLESS, max_cycles=10**9)
+    env = h2h_racing.parallel_env(track=track, num_cars=2, rules=ENDLESS, max_cycles=10**9,
+                                  num_bots=num_bots)
     env.reset(seed=0)
     max_steer = env.config.car.max_steer
     mid, half = 0.5 * (env.config.max_speed + env.config.min_speed), 0.5 * (
@@ -63,9 +67,10 @@ def bench_parallel_env(track: str, seconds: float) -> float:
     return steps / spent
 
 
-def bench_core(track: str, num_envs: int, seconds: float) -> float:
+def bench_core(track: str, num_envs: int, seconds: float, num_bots: int = 0) -> float:
     """Return agent-steps/s of the batched core (step + observation + reward)."""
-    config = EnvConfig(track=track, num_cars=2, rules=ENDLESS, max_cycles=10**9)
+    config = EnvConfig(track=track, num_cars=2, rules=ENDLESS, max_cycles=10**9,
+                       num_bots=num_bots)
     core = RaceCore(config, h2h_racing.load_track(track), num_envs=num_envs)
     core.reset(seed=0)
     weights = rewards.weights_of(config.reward)
@@ -97,9 +102,13 @@ def main() -> None:
           f"{platform.python_version()}, numpy {np.__version__}")
     env_rate = bench_parallel_env(args.track, seconds)
     print(f"ParallelEnv, 2 cars, state obs:       {env_rate:>10,.0f} env-steps/s")
+    env_rate = bench_parallel_env(args.track, seconds, num_bots=3)
+    print(f"  the same with 3 bot cars:           {env_rate:>10,.0f} env-steps/s")
     for num_envs in (512,):
         rate = bench_core(args.track, num_envs, seconds)
         print(f"batched core, {num_envs} envs x 2 cars:     {rate:>10,.0f} agent-steps/s")
+        rate = bench_core(args.track, num_envs, seconds, num_bots=3)
+        print(f"  the same with 3 bot cars per copy:  {rate:>10,.0f} agent-steps/s")
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"peak memory (max RSS):                {peak:>10,.0f} MiB")
 

@@ -1,6 +1,7 @@
 """The ``h2h-racing`` command line.
 
     h2h-racing race [--track speedway] [--drivers racing_line,pure_pursuit] [...]
+                    [--race-type head_to_bot [--bots 3] [--bot-speed 0.75]]
                     [--save race.rrd] [--spawn] [--serve [--serve-seconds N]]
     h2h-racing camera [--track speedway] [--car 1] [--steps 20] [--out camera.png]
     h2h-racing train --out runs/NAME [--track T] [--obs state|camera] [--opponents none|D]
@@ -94,6 +95,10 @@ def _cmd_race(args: argparse.Namespace) -> int:
         from h2h_racing.deepracer.metadata import load_action_space
 
         overrides = load_action_space(args.model_metadata)
+    if args.bots is not None:
+        overrides["num_bots"] = args.bots
+    if args.bot_speed is not None:
+        overrides["bot_speed"] = args.bot_speed
     for i, track in enumerate(tracks):
         result = run_race(track=track, drivers=drivers, race_type=args.race_type,
                           laps=args.laps, seed=args.seed, video=args.video, save=args.save,
@@ -102,6 +107,9 @@ def _cmd_race(args: argparse.Namespace) -> int:
                           simtrace=args.simtrace, reward_function=args.reward_function,
                           **overrides)
         print(("\n" if i else "") + result.table, flush=True)
+        if result.bots:
+            print(f"{result.bots} bot cars at {result.bot_speed:g} m/s; a bot ran into a car "
+                  f"ahead {result.bot_pauses} time(s) (every bot then paused)", flush=True)
         if result.rewards is not None:
             totals = ", ".join(f"car_{k} ({d}) {r:.2f}" for k, (d, r)
                                in enumerate(zip(result.drivers, result.rewards)))
@@ -225,7 +233,12 @@ def build_parser() -> argparse.ArgumentParser:
     race.add_argument("--drivers", default="racing_line,pure_pursuit",
                       help="comma-separated drivers, one per car (see policies/README.md)")
     race.add_argument("--race-type", default="head_to_head",
-                      choices=["head_to_head", "time_trial", "object_avoidance"])
+                      choices=["head_to_head", "time_trial", "object_avoidance", "head_to_bot"])
+    race.add_argument("--bots", type=int, default=None, metavar="N",
+                      help="scripted bot cars (default: 3 in head_to_bot, else 0); they are not "
+                           "in the results table")
+    race.add_argument("--bot-speed", type=float, default=None, metavar="M/S",
+                      help="speed of the bot cars (default 0.75 m/s)")
     race.add_argument("--laps", type=int, default=None, help="lap target (default: preset)")
     race.add_argument("--seed", type=int, default=0)
     race.add_argument("--video", default=None, help="write a top-down MP4 of the race here")

@@ -17,12 +17,14 @@ import numpy.typing as npt
 
 FloatArray = npt.NDArray[np.float64]
 
-RaceType = Literal["time_trial", "head_to_head", "object_avoidance"]
+RaceType = Literal["time_trial", "head_to_head", "object_avoidance", "head_to_bot"]
 RuleMode = Literal["training", "race"]
 ActionType = Literal["continuous", "discrete"]
 Ranking = Literal["total_time", "best_lap"]
 
-RACE_TYPES: tuple[str, ...] = ("time_trial", "head_to_head", "object_avoidance")
+RACE_TYPES: tuple[str, ...] = ("time_trial", "head_to_head", "object_avoidance", "head_to_bot")
+MAX_BOTS = 12
+"""Most bot cars per env copy (DeepRacer's community races allow 6; the league qualifier runs 6)."""
 SENSORS: tuple[str, ...] = ("state", "camera", "lidar")
 RULE_MODES: tuple[str, ...] = ("training", "race")
 
@@ -177,8 +179,9 @@ class RaceRules:
         """Return the rules of a race type.
 
         ``time_trial``: 4 minutes, best valid lap, a lap with more than 3 resets is void
-        (DeepRacer physical-event format). ``head_to_head`` and ``object_avoidance``:
-        3 laps, total time, 5 s penalties (DeepRacer league format), 180 s limit.
+        (DeepRacer physical-event format). ``head_to_head``, ``object_avoidance`` and
+        ``head_to_bot``: 3 laps, total time, 5 s penalties (DeepRacer league format), 180 s
+        limit.
         ``mode="training"`` keeps the limits but ends a car's episode at its first
         infraction and at one lap.
         """
@@ -411,7 +414,7 @@ class EnvConfig:
     num_cars: int = 2
     """Number of cars (agents ``car_0`` ... ``car_{N-1}``)."""
     race_type: RaceType = "head_to_head"
-    """``"time_trial"``, ``"head_to_head"`` or ``"object_avoidance"``."""
+    """``"time_trial"``, ``"head_to_head"``, ``"object_avoidance"`` or ``"head_to_bot"``."""
     rules: RaceRules | None = None
     """Race rules; None takes ``RaceRules.preset(race_type)``."""
     car: CarParams = field(default_factory=CarParams)
@@ -445,6 +448,43 @@ class EnvConfig:
     """Obstacle box length along the lane [m] (DeepRacer's judged rectangle)."""
     obstacle_width: float = 0.4
     """Obstacle box width across the lane [m]."""
+    num_bots: int | None = None
+    """Scripted bot cars per env copy (DeepRacer's ``NUMBER_OF_BOT_CARS``); None means the race
+    type's default (3 for ``head_to_bot``, DeepRacer-for-Cloud's default, else 0). An explicit
+    count overrides the race type: 0 bots in ``head_to_bot``, bots in ``head_to_head``. At most
+    ``MAX_BOTS``."""
+    bot_speed: float = 0.75
+    """Constant speed of the bots along their lane [m/s] (``BOT_CAR_SPEED``; the DeepRacer
+    league's head-to-head qualifier ran 0.75 m/s)."""
+    bot_lane_change: bool = True
+    """Bots change lanes from time to time (``IS_LANE_CHANGE``)."""
+    bot_lane_change_min: float = 3.0
+    """Shortest time between the end of a lane change and the start of the next [s] of bot
+    driving time (``LOWER_LANE_CHANGE_TIME``); each gap is drawn uniformly from
+    [``bot_lane_change_min``, ``bot_lane_change_max``]."""
+    bot_lane_change_max: float = 5.0
+    """Longest time between lane changes [s] (``UPPER_LANE_CHANGE_TIME``)."""
+    bot_lane_change_distance: float = 1.0
+    """Track distance a lane change takes [m] (``LANE_CHANGE_DISTANCE``); it lasts
+    ``bot_lane_change_distance / bot_speed`` seconds."""
+    bot_penalty: float = 5.0
+    """Seconds every bot of an env copy stands still after a bot ran into a car ahead of it
+    (``DR_H2B_BOT_CAR_PENALTY``)."""
+    randomize_bots: bool = False
+    """Draw the bots' start positions (at least ``BOT_MIN_GAP`` = 2 m apart) and lanes at every
+    reset (``RANDOMIZE_BOT_CAR_LOCATIONS``) instead of spacing them evenly on alternating
+    lanes."""
+    round_robin_starts: bool = False
+    """Move each env copy's start forward by ``round_robin_advance`` of the lap at every reset
+    of that copy (DeepRacer's training starts, ``CHANGE_START_POSITION``); the first episode
+    starts on the start line."""
+    round_robin_advance: float = 0.05
+    """Start advance per episode with ``round_robin_starts``, as a fraction of the lap
+    (``ROUND_ROBIN_ADVANCE_DIST``)."""
+    alternate_direction: bool = False
+    """Drive the track the other way round on every second episode
+    (``ALTERNATE_DRIVING_DIRECTION``); DeepRacer params then report ``is_reversed``. The first
+    episode drives the track's own direction."""
     grid: Literal["random", "fixed"] = "random"
     """Start-slot assignment at reset: ``"random"`` draws a permutation from the seed
     (seat fairness), ``"fixed"`` puts car i in slot i."""
@@ -507,6 +547,30 @@ class EnvConfig:
                        "(fraction of the lap in [0, 1), lane +1 or -1)")
         for name in ("obstacle_length", "obstacle_width", "grid_spacing", "step_dt"):
             _finite_positive(owner, name, getattr(self, name))
+        _check(self.num_bots is None or (isinstance(self.num_bots, int)
+                                         and not isinstance(self.num_bots, bool)
+                                         and 0 <= self.num_bots <= MAX_BOTS),
+               owner, "num_bots", self.num_bots,
+               f"None (the race type's default) or an int in [0, {MAX_BOTS}]")
+        for name in ("bot_speed", "bot_lane_change_min", "bot_lane_change_distance"):
+            _finite_positive(owner, name, getattr(self, name))
+        _check(isinstance(self.bot_lane_change_max, (int, float))
+               and math.isfinite(self.bot_lane_change_max)
+               and self.bot_lane_change_max >= self.bot_lane_change_min, owner,
+               "bot_lane_change_min/bot_lane_change_max",
+               (self.bot_lane_change_min, self.bot_lane_change_max),
+               "finite numbers with 0 < bot_lane_change_min <= bot_lane_change_max [s]")
+        _check(isinstance(self.bot_penalty, (int, float)) and math.isfinite(self.bot_penalty)
+               and self.bot_penalty >= 0, owner, "bot_penalty", self.bot_penalty,
+               "a finite number >= 0 [s]")
+        for name in ("bot_lane_change", "randomize_bots", "round_robin_starts",
+                     "alternate_direction"):
+            _check(isinstance(getattr(self, name), bool), owner, name, getattr(self, name),
+                   "a bool")
+        _check(isinstance(self.round_robin_advance, (int, float))
+               and math.isfinite(self.round_robin_advance)
+               and 0.0 < self.round_robin_advance < 1.0, owner, "round_robin_advance",
+               self.round_robin_advance, "a fraction of the lap in (0, 1) (DeepRacer: 0.05)")
         _check(self.grid in ("random", "fixed"), owner, "grid", self.grid, "'random' or 'fixed'")
         _check(isinstance(self.physics_substeps, int) and 1 <= self.physics_substeps <= 32,
                owner, "physics_substeps", self.physics_substeps, "an int in [1, 32]")
@@ -559,6 +623,13 @@ class EnvConfig:
         if self.obstacle_positions is not None:
             return len(self.obstacle_positions)
         return 6 if self.race_type == "object_avoidance" else 0
+
+    @property
+    def bot_count(self) -> int:
+        """Number of bot cars per env copy (``num_bots`` or the race type's default)."""
+        if self.num_bots is not None:
+            return self.num_bots
+        return 3 if self.race_type == "head_to_bot" else 0
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> EnvConfig:

@@ -9,6 +9,19 @@ with E = 1; the training VecEnv is the same core with E in the hundreds.
 A step is two-phase: commands are applied to every car, physics runs, the state is read
 back once, and then race rules, observations and rewards are computed from that same
 snapshot, so no car sees a half-updated world.
+
+Bot cars (``head_to_bot``, ``EnvConfig.num_bots``) are B scripted cars per env copy in
+``(E, B)`` arrays (``bot_*``): they drive their lanes open-loop (``h2h_racing.bots``) as
+kinematic bodies of the same Space, so cars bump into them physically. They are not agents:
+they have no laps, ranks or rewards. A contact between a car and a bot is judged as
+DeepRacer judges it: the one behind along the track is at fault. A car that runs into a bot
+ahead is crashed (the rules' usual crash infraction); a bot that runs into a car ahead makes
+every bot of that env copy stand still for ``bot_penalty`` seconds, and the car goes free.
+
+Training starts (DeepRacer's): with ``round_robin_starts`` each reset of a copy moves its start
+point ``round_robin_advance`` of a lap further round; with ``alternate_direction`` every second
+episode drives the track the other way round (``RaceCore.reset(reverse=...)``; every copy of a
+core drives the same direction, so the flip needs a reset of every copy at once).
 """
 
 from __future__ import annotations
@@ -19,7 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from h2h_racing import race, spawn
+from h2h_racing import bots, race, spawn
 from h2h_racing.config import EnvConfig
 from h2h_racing.dynamics import SingleTrackModel
 from h2h_racing.physics import PhysicsWorld
@@ -76,6 +89,12 @@ class StepEvents:
     """Defences completed by this car this step."""
     collisions: list[tuple[int, int, int, bool]] = field(default_factory=list)
     """``(env, car at fault, other car or obstacle index, other_is_obstacle)``."""
+    bot_contacts: list[tuple[int, int, int, bool]] = field(default_factory=list)
+    """New contacts between cars and bots: ``(env, car, bot, car_at_fault)``;
+    ``car_at_fault`` False means the bot ran into the car from behind (the bots paused)."""
+    bots_paused: BoolArray | None = None
+    """Env copies whose bots started (or extended) a ``bot_penalty`` pause this step, (E,);
+    None when no bot paused."""
     passes: list[tuple[int, int, int]] = field(default_factory=list)
     """``(env, car that passed, car passed)``."""
 
@@ -94,16 +113,22 @@ class RaceCore:
             raise ValueError(f"num_envs must be an int >= 1, got {num_envs!r}")
         self.config = config
         self.rules = config.race_rules
-        self.track = track
+        self.forward_track = track
+        """The track as given (driven in its own direction when not reversed)."""
+        self._reverse_track: Track | None = None
+        self.is_reversed = False
+        """Whether the current episodes drive ``forward_track`` the other way round."""
         self.num_envs = num_envs
         self.num_cars = config.num_cars
         self.num_obstacles = config.obstacle_count
+        self.num_bots = config.bot_count
+        """Bot cars per env copy B."""
         self.dt = config.step_dt
         self.model = SingleTrackModel(config.car)
-        self._projector = track.projector()
-        self.lookup = TrackLookup.from_track(track)
-        """Uniform tables of the track's fields for the compiled kernels."""
-        self.inner_sign = 1 if track.is_ccw else -1
+        self._use_track(track)
+        self.episodes = np.zeros(num_envs, dtype=np.int64)
+        """Episodes started by each copy since the last seeded reset, (E,) (round-robin starts
+        and alternating directions count them)."""
         car = config.car
         # Wheel centres in the body frame: rear axle at -l_r, front at +l_f, +-track/2.
         half_track = 0.5 * car.wheel_track
@@ -123,14 +148,41 @@ class RaceCore:
         self._park = np.stack([np.full(self.num_cars, xmax + PARK_MARGIN),
                                ymin + 0.5 * k], axis=1)
         self.rng = np.random.default_rng()
+        self._bot_duration = config.bot_lane_change_distance / config.bot_speed
+        if self.num_bots:
+            # Fail at construction, not at the first reset, when the lap cannot hold the bots.
+            spawn.bot_layout(track.length, self.rng, 1, self.num_bots, False, self.inner_sign,
+                             np.zeros(1), self._grid_length())
         self.max_cycles = config.max_cycles
         """Steps after which every car is truncated (the env may change it at run time)."""
         self.world: PhysicsWorld | None = None
         self._allocate()
 
+    def _use_track(self, track: Track) -> None:
+        """Drive ``track`` (one direction of ``forward_track``) from the next spawn on."""
+        self.track = track
+        """The track in the current driving direction (``forward_track`` or its reverse)."""
+        self._projector = track.projector()
+        self.lookup = TrackLookup.from_track(track)
+        """Uniform tables of the track's fields for the compiled kernels."""
+        self.inner_sign = 1 if track.is_ccw else -1
+
+    def _set_direction(self, reverse: bool) -> None:
+        if reverse == self.is_reversed:
+            return
+        if reverse and self._reverse_track is None:
+            self._reverse_track = self.forward_track.reversed()
+        self._use_track(self._reverse_track if reverse else self.forward_track)
+        self.is_reversed = bool(reverse)
+
+    def _grid_length(self) -> float:
+        """How far the start grid reaches behind its first slot [m]."""
+        cfg = self.config
+        return cfg.grid_spacing * (self.num_cars - 1) + cfg.car.length
+
     # ------------------------------------------------------------------ state
     def _allocate(self) -> None:
-        e, n, k = self.num_envs, self.num_cars, self.num_obstacles
+        e, n, k, b = self.num_envs, self.num_cars, self.num_obstacles, self.num_bots
         zeros = np.zeros
         self.position = zeros((e, n, 2))
         """Car positions in track coordinates, (E, N, 2), metres."""
@@ -220,6 +272,38 @@ class RaceCore:
         """Obstacle centres in track coordinates, (E, K, 2), metres."""
         self.obstacle_yaw = zeros((e, k))
         """Obstacle headings, (E, K), radians."""
+        self.bot_clock = zeros(e)
+        """Seconds the bots of each copy have driven (their pauses excluded), (E,)."""
+        self.bot_pause_until = zeros(e)
+        """Simulated time until which the bots of each copy stand still, (E,), seconds."""
+        self.bot_pauses = zeros(e, dtype=np.int64)
+        """Bot pauses (a bot ran into a car ahead) over the episode, (E,)."""
+        self.bot_start = zeros((e, b))
+        """Unwrapped arc position of each bot at the start of the episode, (E, B), metres."""
+        self.bot_distance = zeros((e, b))
+        """Unwrapped arc position, ``bot_start + bot_speed * bot_clock``, (E, B), metres."""
+        self.bot_s = zeros((e, b))
+        """Arc position on the centre line, (E, B), metres in [0, L)."""
+        self.bot_d = zeros((e, b))
+        """Signed lateral offset from the centre line, (E, B), metres, left positive."""
+        self.bot_lane = zeros((e, b))
+        """Lane each bot is in, or heading to during a lane change, (E, B): +1 left, -1 right."""
+        self.bot_lane_from = zeros((e, b))
+        """Lane each bot's last lane change started from, (E, B) (equal to ``bot_lane``
+        before the first change)."""
+        self.bot_change_start = np.full((e, b), -np.inf)
+        """Bot clock at which the last lane change started, (E, B), seconds (-inf: none)."""
+        self.bot_next_change = np.full((e, b), np.inf)
+        """Bot clock at which the next lane change starts, (E, B), seconds (inf: never)."""
+        self.bot_position = zeros((e, b, 2))
+        """Bot centres in track coordinates, (E, B, 2), metres."""
+        self.bot_yaw = zeros((e, b))
+        """Bot headings, (E, B), radians in [-pi, pi)."""
+        self.bot_velocity = zeros((e, b, 2))
+        """Bot velocities over the last step, (E, B, 2), m/s (world frame)."""
+        self.bot_speed = zeros((e, b))
+        """Bot speed along the track over the last step, (E, B), m/s (0 while paused)."""
+        self._bot_moved = zeros(e)
         self.final_position = zeros((e, n, 2))
         """Where each car was when its episode ended, before it was parked, (E, N, 2), metres
         (logs and DeepRacer params of the last step read it; stale while the car races)."""
@@ -272,29 +356,41 @@ class RaceCore:
         self.rng = np.random.default_rng(seed)
 
     def reset(self, seed: int | None = None, slots: IntArray | None = None,
-              start: FloatArray | None = None) -> None:
+              start: FloatArray | None = None, reverse: bool | None = None) -> None:
         """Reset every env copy and build a new pymunk Space.
 
         Args:
             seed: Seed of a new random generator; None keeps the current generator, so a
-                later unseeded reset continues the seeded sequence deterministically.
+                later unseeded reset continues the seeded sequence deterministically. A seed
+                also restarts the episode count (``episodes``) of the training starts, so the
+                same seed gives the same first state.
             slots: Grid slot of each car, shape (N,) or (E, N); None draws them as
                 ``config.grid`` says.
             start: Arc position of grid slot 0 in each copy, shape (E,) [m]; None puts it on
-                the start line. Under ``race`` rules laps then count from that point (the race
-                starts and finishes there); under ``training`` rules from each car's own start
-                (DeepRacer's training starts round the lap). Distances stay measured from the
-                track's start line.
+                the start line, or ``round_robin_advance`` of a lap further per episode already
+                started with ``round_robin_starts``. Under ``race`` rules laps then count from
+                that point (the race starts and finishes there); under ``training`` rules from
+                each car's own start (DeepRacer's training starts round the lap). Distances
+                stay measured from the track's start line, in the driving direction.
+            reverse: Drive the track the other way round (True) or its own way (False); None
+                follows ``alternate_direction`` (reversed on odd episodes) or else drives its
+                own way. Arc positions, lanes and progress are then measured in the driving
+                direction (``track`` is ``forward_track.reversed()``, same start line).
         """
         if seed is not None:
             self.seed(seed)
+            self.episodes[:] = 0
+        if reverse is None:
+            reverse = bool(self.config.alternate_direction and self.episodes[0] % 2 == 1)
+        self._set_direction(bool(reverse))
         car = self.config.car
         self.world = PhysicsWorld(
             num_cars=self.num_envs * self.num_cars,
             num_obstacles=self.num_envs * self.num_obstacles,
             car_size=(car.length, car.width), car_mass=car.mass, car_inertia=car.yaw_inertia,
             obstacle_size=(self.config.obstacle_length, self.config.obstacle_width),
-            friction=car.body_friction, elasticity=car.body_elasticity)
+            friction=car.body_friction, elasticity=car.body_elasticity,
+            num_bots=self.num_envs * self.num_bots)
         self._allocate()
         self._spawn(np.ones(self.num_envs, dtype=bool), slots, start)
 
@@ -313,6 +409,14 @@ class RaceCore:
         mask = np.asarray(mask, dtype=bool)
         if not mask.any():
             return
+        if self.config.alternate_direction:
+            if not mask.all():
+                raise ValueError(
+                    "alternate_direction flips the driving direction of every env copy of a "
+                    "core at once, so copies cannot be reset one by one; reset all of them "
+                    "(reset_envs with an all-True mask, or reset()), or use round_robin_starts "
+                    "without alternate_direction")
+            self._set_direction(bool(self.episodes[0] % 2 == 1))
         self._spawn(mask, slots, start)
 
     def _spawn(self, mask: BoolArray, slots: IntArray | None,
@@ -329,9 +433,13 @@ class RaceCore:
         offset, lane = spawn.grid_slots(n, cfg.grid_spacing, self.inner_sign)
         car_offset = offset[slot]
         line = np.zeros((m, 1))
+        if start is None and cfg.round_robin_starts:
+            # DeepRacer: start_ndist += ROUND_ROBIN_ADVANCE_DIST at every new episode.
+            start = np.mod(self.episodes[mask] * cfg.round_robin_advance, 1.0) * track.length
         if start is not None:
             line = np.asarray(start, dtype=np.float64).reshape(m, 1)
             car_offset = car_offset + line
+        self.episodes[mask] += 1
         car_lane = lane[slot]
         s = np.mod(car_offset, track.length)
         d = spawn.lane_offset(track, s, car_lane)
@@ -381,11 +489,66 @@ class RaceCore:
             self.obstacle_d[mask] = obs_d
             self.obstacle_position[mask] = opos
             self.obstacle_yaw[mask] = oyaw
+        if self.num_bots:
+            self._spawn_bots(mask, line[:, 0])
         self._racing = ~self.done & self._penalty_over()
         self._pending_any = bool(self.pending_replace.any())
         self._update_ranks()
         self._gap = self.distance[:, :, None] - self.distance[:, None, :]
         self._sync_physics()
+
+    def _spawn_bots(self, mask: BoolArray, line: FloatArray) -> None:
+        """Lay out the bots of the copies in ``mask`` from their start points ``line`` (M,)."""
+        cfg, track = self.config, self.track
+        m, b = int(mask.sum()), self.num_bots
+        start, lane = spawn.bot_layout(track.length, self.rng, m, b, cfg.randomize_bots,
+                                       self.inner_sign, line, self._grid_length())
+        if cfg.bot_lane_change:
+            # DeepRacer: the first change starts uniform(lower, upper) seconds after the start.
+            first = self.rng.uniform(cfg.bot_lane_change_min, cfg.bot_lane_change_max, (m, b))
+        else:
+            first = np.full((m, b), np.inf)
+        self.bot_clock[mask] = 0.0
+        self.bot_pause_until[mask] = 0.0
+        self.bot_pauses[mask] = 0
+        self.bot_start[mask] = start
+        self.bot_lane[mask] = lane
+        self.bot_lane_from[mask] = lane
+        self.bot_change_start[mask] = -np.inf
+        self.bot_next_change[mask] = first
+        self.bot_velocity[mask] = 0.0
+        self.bot_speed[mask] = 0.0
+        distance, s, d, position, yaw = bots.bot_poses(
+            self.lookup, start, lane, lane, self.bot_change_start[mask], np.zeros(m),
+            self._bot_duration, cfg.bot_speed)
+        self.bot_distance[mask] = distance
+        self.bot_s[mask] = s
+        self.bot_d[mask] = d
+        self.bot_position[mask] = position
+        self.bot_yaw[mask] = yaw
+
+    def _move_bots(self) -> None:
+        """Advance the bots of every copy over the coming step and command their bodies.
+
+        A copy's bot clock advances by the part of the step after its bots' pause (none once
+        every car of the copy is done, when its clock stops too); the bodies get the velocity
+        that carries them from their pose now to their pose at the end of the step.
+        """
+        cfg, lut = self.config, self.lookup
+        moved = self._bot_moved
+        if bots.advance_clock_kernel(self.time, self.steps, self.done, self.bot_pause_until,
+                                     self.dt, self.bot_clock, moved, self.bot_next_change):
+            bots.schedule_lane_changes(
+                self.bot_clock, self.bot_next_change, self.bot_lane_from, self.bot_lane,
+                self.bot_change_start, self._bot_duration, cfg.bot_lane_change_min,
+                cfg.bot_lane_change_max, self.rng)
+        bots.move_kernel(self.bot_start, self.bot_lane_from, self.bot_lane,
+                         self.bot_change_start, self.bot_clock, moved, self._bot_duration,
+                         cfg.bot_speed, 1.0 / self.dt, lut.x, lut.y, lut.heading,
+                         lut.width_left, lut.width_right, lut.inv_ds, lut.length,
+                         self.bot_distance, self.bot_s, self.bot_d, self.bot_position,
+                         self.bot_yaw, self.bot_velocity, self.bot_speed,
+                         self.world.bot_command)
 
     def _sync_physics(self) -> None:
         """Write every body's pose and velocity into pymunk (after resets and teleports)."""
@@ -393,10 +556,14 @@ class RaceCore:
         e, k = self.num_envs, self.num_obstacles
         car_pos = (self.position + self.env_offset[:, None, :]).reshape(-1, 2)
         obs_pos = (self.obstacle_position + self.env_offset[:, None, :]).reshape(-1, 2)
-        position = np.concatenate([car_pos, obs_pos])
-        angle = np.concatenate([self.yaw.reshape(-1), self.obstacle_yaw.reshape(-1)])
-        velocity = np.concatenate([self.velocity.reshape(-1, 2), np.zeros((e * k, 2))])
-        angular = np.concatenate([self.yaw_rate.reshape(-1), np.zeros(e * k)])
+        bot_pos = (self.bot_position + self.env_offset[:, None, :]).reshape(-1, 2)
+        position = np.concatenate([car_pos, obs_pos, bot_pos])
+        angle = np.concatenate([self.yaw.reshape(-1), self.obstacle_yaw.reshape(-1),
+                                self.bot_yaw.reshape(-1)])
+        velocity = np.concatenate([self.velocity.reshape(-1, 2), np.zeros((e * k, 2)),
+                                   self.bot_velocity.reshape(-1, 2)])
+        angular = np.concatenate([self.yaw_rate.reshape(-1), np.zeros(e * k),
+                                  np.zeros(e * self.num_bots)])
         self.world.set_state(position, angle, velocity, angular)
 
     # ------------------------------------------------------------------ step
@@ -422,7 +589,10 @@ class RaceCore:
         self.steer_command = steer_command
         self.speed_command = speed_command
 
-        # Phase 1: dynamics for all cars, then contacts and integration in pymunk.
+        # Phase 1: dynamics for all cars, the bots' scripted motion, then contacts and
+        # integration in pymunk.
+        if self.num_bots:
+            self._move_bots()
         self.model.step_into(
             self.yaw.reshape(-1), self.velocity.reshape(-1, 2), self.yaw_rate.reshape(-1),
             self.steer.reshape(-1), steer_command.reshape(-1), speed_command.reshape(-1),
@@ -458,9 +628,27 @@ class RaceCore:
             finished_now = self._no_cars
 
         # Contacts.
+        bot_events: list[tuple[int, int, int, bool]] = []
+        bots_paused = None
         if contact_a.size:
+            first_bot = e * (n + self.num_obstacles)
+            with_bot = (contact_a >= first_bot) | (contact_b >= first_bot)
             crashed, collided, collision_events = race.judge_contacts(
-                contact_a, contact_b, e, n, self.num_obstacles, self.distance, racing)
+                contact_a[~with_bot], contact_b[~with_bot], e, n, self.num_obstacles,
+                self.distance, racing)
+            if with_bot.any():
+                bot_fault, bot_collided, bot_events, pause = race.judge_bot_contacts(
+                    contact_a[with_bot], contact_b[with_bot], e, n, first_bot, self.num_bots,
+                    self.s, self.bot_s, track.length, racing, self.done)
+                crashed |= bot_fault
+                collided |= bot_collided
+                if pause.any():
+                    # DeepRacer: every bot of the copy waits penalty_seconds.
+                    bots_paused = pause
+                    self.bot_pause_until = np.where(
+                        pause, np.maximum(self.bot_pause_until, self.time + cfg.bot_penalty),
+                        self.bot_pause_until)
+                    self.bot_pauses += pause
             self.collisions += collided
             self.crashes += crashed
             event = True
@@ -533,7 +721,8 @@ class RaceCore:
             immobilised=immobilised, penalised=penalised, replaced=replaced,
             lap_completed=lap_completed, finished=finished_now, progress=step_distance,
             overtakes=overtakes_now, overtaken=overtaken_now, defences=defences_now,
-            collisions=collision_events, passes=passes)
+            collisions=collision_events, passes=passes, bot_contacts=bot_events,
+            bots_paused=bots_paused)
 
     def _infractions(self, infraction: BoolArray, off_track: BoolArray, crash: BoolArray,
                      reversed_: BoolArray, immobilised: BoolArray,
@@ -612,6 +801,11 @@ class RaceCore:
             obstacles = self.obstacle_position[env_idx]
             ogaps = np.linalg.norm(cand_pos[:, :, None, :] - obstacles[:, None, :, :], axis=-1)
             clearance = np.minimum(clearance, ogaps.min(axis=2) - 0.25)
+        if self.num_bots:
+            # Bots are cars: the same clearance, measured where they are now.
+            bot_pos = self.bot_position[env_idx]
+            bgaps = np.linalg.norm(cand_pos[:, :, None, :] - bot_pos[:, None, :, :], axis=-1)
+            clearance = np.minimum(clearance, bgaps.min(axis=2))
         ok = clearance > REPLACE_CLEARANCE
         choice = np.where(ok.any(axis=1), np.argmax(ok, axis=1), ok.shape[1] - 1)
         rows = np.arange(len(env_idx))

@@ -1,4 +1,4 @@
-"""# h2h_racing_v0: head-to-head racing of 1/18-scale cars
+"""# h2h_racing_v1: head-to-head racing of 1/18-scale cars
 
 | | |
 |---|---|
@@ -13,8 +13,8 @@
 
 Several cars race on a DeepRacer-style track (no walls; a car is off track when all four
 wheels leave the surface). Cars are boxes of 0.32 x 0.20 m with a dynamic single-track
-model (tyre slip, friction limit); contacts between cars and with box obstacles are
-physical (pymunk), so cars bump, push and block one another.
+model (tyre slip, friction limit); contacts between cars, with box obstacles and with bot
+cars are physical (pymunk), so cars bump, push and block one another.
 
 ## Actions
 Continuous: `steer` in [-1, 1] maps linearly to [`min_steer_deg`, `max_steer_deg`]
@@ -30,16 +30,19 @@ as on the real car. Finite values outside [-1, 1] are clipped; NaN or inf raise
 `h2h_racing.sensors.state` for the exact layout): speed, sideslip, yaw rate, steering,
 lateral offset, heading error, curvature look-ahead up to 5 m, track half-widths, race
 position, penalty flag, and for the nearest opponents and obstacles ahead their
-track-relative gap, lateral offset and relative speed.
+track-relative gap, lateral offset and relative speed. Bot cars are opponents here: the
+`opponent_slots` take the nearest of the other cars and the bots alike (a bot moves, so it
+needs the speed feature the obstacle slots lack), so a learner in `head_to_bot` sees them
+without extra slots; raise `opponent_slots` with many bots.
 
 Any other choice, e.g. `sensors=("camera", "lidar", "state")`, gives a `Dict` with those keys:
 - `camera`: DeepRacer's front camera (0.13 m high, 0.145 m ahead, pitched down 15 deg, 64.7 deg
   horizontal field of view), 160 x 120 greyscale uint8 by default, shape (H, W, C) with
   C = cameras x frame_stack (`camera=CameraConfig(stereo=True, frame_stack=4, ...)`); it shows
-  the track with its painted lines, the floor, the horizon, other cars and obstacles as shaded
-  3-D boxes (see `h2h_racing.sensors.camera`);
+  the track with its painted lines, the floor, the horizon, other cars, bot cars (all in one
+  shade of their own) and obstacles as shaded 3-D boxes (see `h2h_racing.sensors.camera`);
 - `lidar`: 64 ranges over +-150 deg in [0.15, max_range] m (1.0 by default, up to 12), seeing
-  cars and obstacles; optional Gaussian noise (seeded from the env's seed); or DeepRacer's
+  cars, bot cars and obstacles; optional Gaussian noise (seeded from the env's seed); or DeepRacer's
   `SECTOR_LIDAR` (8 binary sectors within 0.5 m) with `lidar=LidarConfig(mode="sector_lidar")`.
 Sensors read the simulation state only, never the spectator renderer.
 
@@ -52,7 +55,7 @@ The weighted sum of these terms (weights in `RewardConfig`; each weighted term i
 | progress | metres of centre-line progress this step | 1.0 |
 | speed | forward speed while racing [m/s] | 0.0 |
 | off_track | 1 on the step the car goes off track | -5.0 |
-| crash | 1 when judged at fault in a contact (the car behind, or hitting an obstacle) | -5.0 |
+| crash | 1 when judged at fault in a contact (the car behind, hitting an obstacle, or running into a bot from behind) | -5.0 |
 | overtake | cars passed on track minus times passed | 1.0 |
 | lap | 1 per completed lap | 0.0 |
 | time | 1 per step while racing | 0.0 |
@@ -62,7 +65,8 @@ The weighted sum of these terms (weights in `RewardConfig`; each weighted term i
 each car's reward is `float(reward_function(params))` from the first step on (`params["steps"]
 == 1.0`), with DeepRacer's 27-key `params` (`h2h_racing.deepracer.params`: the model point
 0.14 m ahead of the car, progress relative to the episode's start, commanded speed and
-steering, the other cars and the obstacles as `objects_*`). A file is loaded once per car, so
+steering, the obstacles, the bot cars and the other cars as `objects_*`, in that order; with
+bots every `objects_speed` is `bot_speed`, as in DeepRacer). A file is loaded once per car, so
 module-level state is per car; a callable is shared. A car frozen by a penalty gets 0.0
 without a call. The function gets a deep copy; `infos[agent]["deepracer_params"]` holds the
 params of that step (None when the car was not rated), and `reward_terms` still holds the
@@ -86,7 +90,36 @@ Finished and retired cars leave `env.agents` on the step that ends them.
 
 Presets: `head_to_head` (3 laps, total time, 5 s penalties, 180 s limit), `time_trial`
 (4 minutes, best valid lap, a lap with more than 3 resets is void), `object_avoidance`
-(head-to-head rules with 6 boxes on the lanes).
+(head-to-head rules with 6 boxes on the lanes), `head_to_bot` (head-to-head rules with 3 bot
+cars).
+
+## Bot cars (`head_to_bot`)
+DeepRacer's HEAD_TO_BOT: `num_bots` scripted cars (None: 3 in `head_to_bot`, else 0; an
+explicit count works in any race type, up to 12) drive the lanes (half-way between the
+centre line and a border) at `bot_speed` (0.75 m/s) and never react to the cars. They start
+`linspace(2 m, L - 1 m, n)` ahead of the start point on alternating lanes, inner first
+(`randomize_bots=True`: random positions at least 2 m apart and random lanes, per reset),
+and change lanes every `bot_lane_change_min`..`bot_lane_change_max` seconds (3-5 s, drawn
+from the env's generator; `bot_lane_change=False` keeps them in lane), a change taking
+`bot_lane_change_distance` (1 m) of track. Bots are not agents: no laps, ranks, rewards or
+results rows, and no overtake counting. Contacts are judged as DeepRacer judges them, by who
+is behind along the track: a car that runs into a bot ahead is crashed (the crash infraction:
+a penalty under race rules, the end of its episode under training rules); a bot that runs
+into a car ahead makes every bot of the race stand still for `bot_penalty` seconds (5 s), and
+the car is not penalised. Bots pass through obstacles and each other. `env.core.bot_*` holds
+their state; `env.last_events.bot_contacts` lists `(env, car, bot, car_at_fault)` per contact.
+
+## Training starts
+DeepRacer's: `round_robin_starts=True` moves the start point of each episode
+`round_robin_advance` (0.05) of the lap further round, the first episode on the start line
+(the grid, laps in training rules and DeepRacer's `progress` all count from there);
+`alternate_direction=True` drives every second episode the other way round (the same start
+line; `env.track` and `env.core.track` are then `track.reversed()`, arc positions and progress
+follow the driving direction and DeepRacer params report `is_reversed=True`). A `reset` with a
+seed restarts both cycles (episode 0: start line, the track's own direction), so the same seed
+gives the same first state; seed only the first reset to rotate. The rsl-rl VecEnv honours
+`round_robin_starts` per env copy but refuses `alternate_direction` (its copies share one
+direction and reset one at a time): train it on `track.reversed()` instead.
 
 ## Info
 `infos[agent]` holds: `progress` (% of a lap since the episode start), `distance` (m from the
@@ -101,9 +134,14 @@ h2h_racing.parallel_env(track="speedway", num_cars=2, race_type="head_to_head",
                         reward_function=None, **config)
 ```
 `track`: a catalogue name (`h2h-racing tracks list`), a track file (.json, .npy, .csv) or
-a `Track`. `rules`: None (the race type's preset), `"race"`, `"training"` or a `RaceRules`.
-Every other keyword is a field of `EnvConfig` (e.g. `action_type="discrete"`,
-`num_obstacles=4`, `randomize_obstacles=True`, `grid="fixed"`, `reward=RewardConfig(...)`).
+a `Track`. `race_type`: `"head_to_head"`, `"time_trial"`, `"object_avoidance"` or
+`"head_to_bot"`. `rules`: None (the race type's preset), `"race"`, `"training"` or a
+`RaceRules`. Every other keyword is a field of `EnvConfig` (e.g. `action_type="discrete"`,
+`num_obstacles=4`, `randomize_obstacles=True`, `grid="fixed"`, `reward=RewardConfig(...)`,
+`num_bots=6`, `bot_speed=0.75`, `randomize_bots=True`, `round_robin_starts=True`,
+`alternate_direction=True`), e.g.
+`h2h_racing.parallel_env(track="speedway", num_cars=1, race_type="head_to_bot",
+rules="training", round_robin_starts=True)`.
 `min_steer_deg`/`max_steer_deg` set the continuous steering range (default +-30 deg).
 `reward_function`: None (built-in reward), a `.py` file path or a callable (see above).
 `reset(seed, options)` accepts `options={"grid": [slot of car_0, slot of car_1, ...]}`.
@@ -116,6 +154,12 @@ but not bit-for-bit. Scripted drivers (``h2h_racing.policies``) read the true st
 ``env.core`` (the batched core behind the env, E = 1).
 
 ## Version history
+- v1: `head_to_bot` and bot cars (`num_bots`, ...), which fill the state observation's
+  opponent slots, appear to the camera, the lidar and DeepRacer's `objects_*`, and are judged
+  in contacts; DeepRacer training starts (`round_robin_starts`, `alternate_direction`);
+  camera fix: cars 9 to 16 are drawn in their documented shade (`CAR_SHADES[i % 8]`; they were
+  drawn with values read past the shade table). Configurations without bots and with at most
+  8 cars behave exactly as in v0.
 - v0: initial release (state, camera and lidar observations).
 """
 
@@ -163,7 +207,8 @@ class RacingEnv(ParallelEnv):
     Args:
         track: Catalogue name, track file path or ``Track``.
         num_cars: Number of cars.
-        race_type: ``"head_to_head"``, ``"time_trial"`` or ``"object_avoidance"``.
+        race_type: ``"head_to_head"``, ``"time_trial"``, ``"object_avoidance"`` or
+            ``"head_to_bot"``.
         rules: None, ``"race"``, ``"training"`` or a ``RaceRules``.
         render_mode: None or ``"rgb_array"``.
         config: An ``EnvConfig``; when given, the other configuration arguments must not be.
@@ -174,7 +219,7 @@ class RacingEnv(ParallelEnv):
     """
 
     metadata = {
-        "name": "h2h_racing_v0",
+        "name": "h2h_racing_v1",
         "render_modes": ["rgb_array"],
         "render_fps": 15,
         "is_parallelizable": True,
@@ -240,13 +285,12 @@ class RacingEnv(ParallelEnv):
         self._chosen: list[int] = []
         self._deepracer: DeepRacerReward | None = None
         self._params: ParamsBuilder | None = None
+        # One params builder per driving direction (its centre line is in driving order).
+        self._params_by_direction: dict[bool, ParamsBuilder] = {}
         if reward_function is not None:
             self._deepracer = DeepRacerReward(reward_function, config.num_cars,
                                               self.possible_agents)
-            self._params = ParamsBuilder(
-                self.track, config.car, config.num_cars,
-                obstacle_size=(config.obstacle_length, config.obstacle_width),
-                camera_hfov_deg=config.camera.hfov_deg, camera_forward_m=config.camera.forward_m)
+            self._params = self._params_builder(False)
         self._weights = rewards.weights_of(config.reward)
         no_car = np.zeros((1, config.num_cars), dtype=bool)
         self._no_events = types.SimpleNamespace(off_track=no_car, crashed=no_car,
@@ -281,8 +325,9 @@ class RacingEnv(ParallelEnv):
         """Start a new race.
 
         Args:
-            seed: Seeds the env's random generator (grid draw, obstacle randomisation);
-                None continues the current generator.
+            seed: Seeds the env's random generator (grid draw, obstacle and bot
+                randomisation, bot lane changes) and restarts the training-start cycles
+                (``round_robin_starts``, ``alternate_direction``); None continues both.
             options: ``{"grid": [slot, ...]}`` puts car i in grid slot ``grid[i]``
                 (a permutation of 0..N-1); other keys are ignored.
 
@@ -296,7 +341,10 @@ class RacingEnv(ParallelEnv):
                 raise ValueError(f"options['grid'] must list one slot per car "
                                  f"({self.config.num_cars}), got {options['grid']!r}")
         self.core.reset(seed=seed, slots=slots)
+        # With alternate_direction the core may now drive the track the other way round.
+        self.track = self.core.track
         if self._params is not None:
+            self._params = self._params_builder(self.core.is_reversed)
             self._params.reset()
         if self._lidar is not None and self.config.lidar.noise_std > 0:
             # The lidar's noise has a generator of its own, seeded from the env's, so that
@@ -357,6 +405,19 @@ class RacingEnv(ParallelEnv):
             self._live = set(self.agents)
         obs = {a: obs[a] for a in agents}
         return obs, rewards_out, terminations, truncations, infos
+
+    def _params_builder(self, reversed_: bool) -> ParamsBuilder:
+        """The DeepRacer params builder of one driving direction (built once)."""
+        builder = self._params_by_direction.get(reversed_)
+        if builder is None:
+            config = self.config
+            builder = ParamsBuilder(
+                self.core.track, config.car, config.num_cars,
+                obstacle_size=(config.obstacle_length, config.obstacle_width),
+                is_reversed=reversed_, camera_hfov_deg=config.camera.hfov_deg,
+                camera_forward_m=config.camera.forward_m)
+            self._params_by_direction[reversed_] = builder
+        return builder
 
     def _deepracer_rewards(self, agents: list[str], racing: npt.NDArray[np.bool_],
                            steer: npt.NDArray[np.float64], events: Any,

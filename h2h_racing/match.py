@@ -39,6 +39,12 @@ class RaceResult:
     """With ``reward_function``: each car's total DeepRacer reward over the race, car order."""
     simtrace: tuple[str, ...] = ()
     """With ``simtrace``: the per-car DeepRacer log folders written."""
+    bots: int = 0
+    """Scripted bot cars in the race (not in ``rows``)."""
+    bot_speed: float = 0.0
+    """Their speed [m/s]."""
+    bot_pauses: int = 0
+    """How often a bot ran into a car ahead, pausing every bot."""
     viewer: Any = field(default=None, repr=False, compare=False)
     """With ``serve=True``: the ``h2h_racing.viz.RaceRecorder`` still serving the web viewer
     (``viewer.viewer_url``); ``viewer.serve_until(seconds)`` keeps it up, then closes it."""
@@ -68,7 +74,9 @@ def run_race(track: str, drivers: Sequence[str | Any], race_type: str = "head_to
         track: Catalogue name or track file.
         drivers: Driver names (see ``h2h_racing.policies.DRIVERS``) or driver objects (with
             ``reset(core)``, ``act(core, car)`` and a ``name``); car i gets driver i.
-        race_type: ``"head_to_head"``, ``"time_trial"`` or ``"object_avoidance"``.
+        race_type: ``"head_to_head"``, ``"time_trial"``, ``"object_avoidance"`` or
+            ``"head_to_bot"`` (3 scripted bot cars by default; ``num_bots=N``,
+            ``bot_speed=...`` and the other ``EnvConfig`` bot fields go in ``config``).
         laps: Lap target; None keeps the race type's preset.
         seed: Seed of the race (grid draw and obstacle randomisation).
         grid: Grid slot of each car; None draws it from the seed.
@@ -176,6 +184,8 @@ def run_race(track: str, drivers: Sequence[str | Any], race_type: str = "head_to
     return RaceResult(track=env.track.name, drivers=tuple(labels), rows=rows, steps=steps,
                       rewards=tuple(totals.tolist()) if reward_function is not None else None,
                       simtrace=tuple(logger.paths) if logger is not None else (),
+                      bots=env.core.num_bots, bot_speed=env.config.bot_speed,
+                      bot_pauses=int(env.core.bot_pauses[0]),
                       viewer=recorder if serve else None)
 
 

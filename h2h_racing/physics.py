@@ -7,9 +7,12 @@ pymunk in one batch call, pymunk integrates positions and resolves contacts over
 sub-steps, and the state is read back in one batch call. Contacts are read from pymunk's
 arbiters, also in one batch call.
 
-Bodies are added in a fixed order (all cars, env-major, then all obstacles) and never
-removed, so the batch arrays keep that order. Obstacles are kinematic bodies with zero
-velocity: they cannot be pushed, and can be moved between episodes in the same batch call.
+Bodies are added in a fixed order (all cars, env-major, then all obstacles, then all bot
+cars) and never removed, so the batch arrays keep that order. Obstacles are kinematic bodies
+with zero velocity: they cannot be pushed, and can be moved between episodes in the same batch
+call. Bot cars are kinematic car boxes whose velocities the core sets before every step
+(:attr:`PhysicsWorld.bot_command`), so pymunk carries them along their scripted path and they
+push cars like an unstoppable car would; kinematic bodies never touch each other.
 """
 
 from __future__ import annotations
@@ -35,7 +38,8 @@ _READ_SLACK = 1024
 
 
 class PhysicsWorld:
-    """A pymunk Space with ``num_bodies_cars`` car boxes and ``num_obstacles`` obstacle boxes.
+    """A pymunk Space with ``num_cars`` car boxes, ``num_obstacles`` obstacle boxes and
+    ``num_bots`` bot-car boxes.
 
     Args:
         num_cars: Total number of cars over all env copies (C = E * N).
@@ -46,6 +50,8 @@ class PhysicsWorld:
         obstacle_size: (length, width) of every obstacle box [m].
         friction: Coulomb friction coefficient of contacts.
         elasticity: Restitution of contacts.
+        num_bots: Total number of bot cars over all env copies (Q = E * B); they have the
+            cars' box.
     """
 
     def __init__(
@@ -58,9 +64,11 @@ class PhysicsWorld:
         obstacle_size: tuple[float, float],
         friction: float,
         elasticity: float,
+        num_bots: int = 0,
     ) -> None:
         self.num_cars = num_cars
         self.num_obstacles = num_obstacles
+        self.num_bots = num_bots
         space = pymunk.Space(threaded=False)
         space.gravity = (0.0, 0.0)
         # pymunk's defaults are tuned for pixels: allow 1 mm of overlap, not 10 cm.
@@ -71,8 +79,9 @@ class PhysicsWorld:
         # re-insert every shape each sub-step; for many cars a spatial hash with 1 m cells (a
         # few car lengths) is about 1.5x faster (1,024 moving cars: 180 vs 280 us per
         # sub-step). For a handful of bodies the tree is cheaper than the hash's table.
-        if num_cars + num_obstacles >= HASH_MIN_BODIES:
-            space.use_spatial_hash(HASH_CELL, 8 * (num_cars + num_obstacles))
+        total = num_cars + num_obstacles + num_bots
+        if total >= HASH_MIN_BODIES:
+            space.use_spatial_hash(HASH_CELL, 8 * total)
         self.space = space
         self._bodies: list[pymunk.Body] = []
         half_l, half_w = 0.5 * car_size[0], 0.5 * car_size[1]
@@ -93,7 +102,13 @@ class PhysicsWorld:
             shape.elasticity = elasticity
             space.add(body, shape)
             self._bodies.append(body)
-        total = num_cars + num_obstacles
+        for _ in range(num_bots):
+            body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+            shape = pymunk.Poly(body, car_box)
+            shape.friction = friction
+            shape.elasticity = elasticity
+            space.add(body, shape)
+            self._bodies.append(body)
         ids = np.array([b.id for b in self._bodies], dtype=np.uint64)
         self._index_of = {int(body_id): k for k, body_id in enumerate(ids)}
         # Contacts are reported by a callback that runs only when two shapes start
@@ -145,13 +160,13 @@ class PhysicsWorld:
 
     def set_state(self, position: FloatArray, angle: FloatArray, velocity: FloatArray,
                   angular_velocity: FloatArray) -> None:
-        """Teleport every body (cars then obstacles).
+        """Teleport every body (cars, then obstacles, then bots).
 
         Args:
-            position: Shape (C + O, 2), metres.
-            angle: Shape (C + O,), radians.
-            velocity: Shape (C + O, 2), m/s.
-            angular_velocity: Shape (C + O,), rad/s.
+            position: Shape (C + O + Q, 2), metres.
+            angle: Shape (C + O + Q,), radians.
+            velocity: Shape (C + O + Q, 2), m/s.
+            angular_velocity: Shape (C + O + Q,), rad/s.
         """
         write = self._write
         write[:, 0:2] = position
@@ -164,7 +179,7 @@ class PhysicsWorld:
 
     @property
     def state(self) -> FloatArray:
-        """Every body's state after the last step, (C + O, 6): x, y, angle, vx, vy, omega.
+        """Every body's state after the last step, (C + O + Q, 6): x, y, angle, vx, vy, omega.
 
         The array is refreshed in place by each :meth:`step`.
         """
@@ -178,8 +193,16 @@ class PhysicsWorld:
         """
         return self._write_vel[: self.num_cars]
 
+    @property
+    def bot_command(self) -> FloatArray:
+        """The bot velocities to hold during the next step, (Q, 3): vx, vy, omega (writable).
+
+        Kinematic bodies move with these velocities whatever they touch."""
+        return self._write_vel[self.num_cars + self.num_obstacles:]
+
     def step(self, dt: float, substeps: int) -> None:
-        """Hold the car velocities in :attr:`command`, run ``substeps`` pymunk steps, and read
+        """Hold the car velocities in :attr:`command` (and the bots' in :attr:`bot_command`),
+        run ``substeps`` pymunk steps, and read
         every body back into :attr:`state`.
 
         Args:
@@ -210,8 +233,9 @@ class PhysicsWorld:
         """Return and forget the pairs of bodies that started touching since the last call.
 
         Returns:
-            ``(a, b)``: body indices (cars 0..C-1, then obstacles C..C+O-1), shape (P,)
-            each, in the order pymunk reported them (deterministic for a given Space).
+            ``(a, b)``: body indices (cars 0..C-1, then obstacles C..C+O-1, then bots
+            C+O..C+O+Q-1), shape (P,) each, in the order pymunk reported them
+            (deterministic for a given Space).
         """
         if not self._begun:
             return _EMPTY, _EMPTY

@@ -103,6 +103,66 @@ def judge_contacts(body_a: IntArray, body_b: IntArray, num_envs: int, num_cars: 
     return at_fault, collided, events
 
 
+def judge_bot_contacts(body_a: IntArray, body_b: IntArray, num_envs: int, num_cars: int,
+                       first_bot: int, num_bots: int, s: FloatArray, bot_s: FloatArray,
+                       length: float, racing: BoolArray, done: BoolArray,
+                       ) -> tuple[BoolArray, BoolArray, list[tuple[int, int, int, bool]],
+                                  BoolArray]:
+    """Decide who caused each new contact between a car and a bot, as DeepRacer judges it.
+
+    The one behind along the track is at fault, by the wrapped arc gap
+    ``g = wrap(bot_s - s)`` in [-L/2, L/2) between their centres: ``g >= 0`` (the bot is
+    ahead, or level) makes the car, if racing, the crashing car; ``g < 0`` means the bot ran
+    into the car from behind, and every bot of that env copy pauses (the car goes free).
+    Contacts with a parked car, and bot-bot or bot-obstacle pairs, are ignored.
+
+    Args:
+        body_a: First body of each new contact, flat body index, shape (P,). Cars are
+            ``e * num_cars + n``; bots are ``first_bot + e * num_bots + j``.
+        body_b: Second body of each contact, shape (P,).
+        num_envs: E.
+        num_cars: N.
+        first_bot: Flat body index of bot 0 of env copy 0.
+        num_bots: Bots per env copy B.
+        s: Arc position of each car, shape (E, N) [m].
+        bot_s: Arc position of each bot, shape (E, B) [m].
+        length: Lap length L [m].
+        racing: Which cars are racing, shape (E, N).
+        done: Which cars are done (parked), shape (E, N).
+
+    Returns:
+        ``(at_fault (E, N), collided (E, N), events, pause (E,))``: events are
+        ``(env, car, bot, car_at_fault)`` in pymunk's report order.
+    """
+    at_fault = np.zeros((num_envs, num_cars), dtype=bool)
+    collided = np.zeros((num_envs, num_cars), dtype=bool)
+    pause = np.zeros(num_envs, dtype=bool)
+    events: list[tuple[int, int, int, bool]] = []
+    total_cars = num_envs * num_cars
+    # Loops over this step's few new contacts (usually none), never over cars or copies.
+    for a, b in zip(body_a.tolist(), body_b.tolist()):
+        if a >= total_cars:
+            a, b = b, a
+        if a >= total_cars or b < first_bot:
+            continue
+        env, car = divmod(a, num_cars)
+        bot = (b - first_bot) % num_bots
+        if done[env, car]:
+            continue
+        collided[env, car] = True
+        gap = bot_s[env, bot] - s[env, car]
+        gap -= length * math.floor((gap + 0.5 * length) / length)
+        if gap >= 0.0:
+            # A frozen car that a bot ahead touches (being pushed back onto it) is not judged.
+            if racing[env, car]:
+                at_fault[env, car] = True
+                events.append((env, car, bot, True))
+        else:
+            pause[env] = True
+            events.append((env, car, bot, False))
+    return at_fault, collided, events, pause
+
+
 def race_ranks(distance: FloatArray, finished: BoolArray, finish_time: FloatArray,
                best_lap: FloatArray, ranking: str) -> IntArray:
     """Return each car's race position (1 = leader), shape (E, N).

@@ -22,6 +22,8 @@ BORDER = (235, 235, 235)
 CENTRE = (225, 190, 40)
 START = (230, 60, 60)
 OBSTACLE = (160, 110, 60)
+BOT = (205, 205, 215)
+"""RGB colour of every bot car (drawn darker while the bots are paused)."""
 CAR_COLOURS = [(230, 57, 70), (69, 123, 230), (42, 180, 90), (240, 170, 30), (160, 80, 200),
                (30, 190, 200), (240, 110, 170), (130, 130, 60)]
 """RGB colour of car i is ``CAR_COLOURS[i % 8]``."""
@@ -104,6 +106,16 @@ class SpectatorRenderer:
             boxes = self._box(core.obstacle_position[e], core.obstacle_yaw[e],
                               cfg.obstacle_length, cfg.obstacle_width)
             cv2.fillPoly(img, list(self.to_pixels(boxes)), OBSTACLE, cv2.LINE_AA)
+        if core.num_bots:
+            paused = core.bot_pause_until[e] > core.time[e]
+            colour = tuple(int(0.6 * c) for c in BOT) if paused else BOT
+            boxes = self._box(core.bot_position[e], core.bot_yaw[e], cfg.car.length,
+                              cfg.car.width)
+            cv2.fillPoly(img, list(self.to_pixels(boxes)), colour, cv2.LINE_AA)
+            heading = np.stack([np.cos(core.bot_yaw[e]), np.sin(core.bot_yaw[e])], axis=-1)
+            for nose in self.to_pixels(core.bot_position[e] + 0.12 * heading).tolist():
+                cv2.circle(img, tuple(nose), max(1, int(0.03 * self.scale)), (40, 40, 40), -1,
+                           cv2.LINE_AA)
         boxes = self._box(core.position[e], core.yaw[e], cfg.car.length, cfg.car.width)
         pixels = self.to_pixels(boxes)
         frozen = core.frozen[e]

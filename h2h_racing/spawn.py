@@ -17,6 +17,15 @@ OBSTACLE_CLEAR_START = 3.0
 """No obstacle is placed within this many metres after the start line [m]."""
 OBSTACLE_CLEAR_END = 1.0
 """No obstacle is placed within this many metres behind the start grid's last slot [m]."""
+BOT_CLEAR_START = 2.0
+"""The first bot starts this far ahead of the start point [m] (DeepRacer's
+``MIN_DISTANCE_BETWEEN_BOT_CARS`` doubles as the first position)."""
+BOT_CLEAR_END = 1.0
+"""The last bot starts at least this far before the start grid's last slot [m] (DeepRacer:
+``L - 1.0``)."""
+BOT_MIN_GAP = 2.0
+"""Smallest distance between neighbouring bots at the start [m]
+(``MIN_DISTANCE_BETWEEN_BOT_CARS``)."""
 
 
 def lane_offset(track: Track, s: FloatArray, lane: FloatArray) -> FloatArray:
@@ -101,6 +110,64 @@ def obstacle_layout(track: Track, rng: np.random.Generator, num_envs: int, count
                                (num_envs, count)).astype(np.float64)
     s = OBSTACLE_CLEAR_START + share * (k[None, :] + u)
     return s, lane
+
+
+def bot_layout(length: float, rng: np.random.Generator, num_envs: int, count: int,
+               randomize: bool, inner_sign: int, start: FloatArray,
+               grid_length: float = 0.0) -> tuple[FloatArray, FloatArray]:
+    """Place ``count`` bot cars per env copy on the lanes, ahead of the start grid.
+
+    DeepRacer's ``bot_cars_agent_ctrl`` spaces bots evenly, ``linspace(2.0, L - 1.0, n)``
+    metres, on alternating lanes starting with the inner lane. Here the span is measured
+    from each copy's start point ``start`` (so bots stay clear of the grid wherever the
+    episode starts) and ends ``BOT_CLEAR_END + grid_length`` metres before it comes round
+    again. With ``randomize`` the positions are drawn uniformly among the layouts whose
+    neighbours are at least ``BOT_MIN_GAP`` apart (sorted uniform draws in the span shortened
+    by the gaps, then the gaps added back), and each lane is drawn as a fair coin.
+
+    Args:
+        length: Lap length L [m].
+        rng: Source of the random draws (used only with ``randomize``).
+        num_envs: Env copies M to lay out.
+        count: Bots per copy B.
+        randomize: Draw positions and lanes instead of spacing them evenly.
+        inner_sign: +1 when the inside of the loop is on the left of travel, else -1.
+        start: Arc position of each copy's start point, shape (M,) [m].
+        grid_length: How far the start grid reaches behind the start point [m].
+
+    Returns:
+        ``(s (M, B), lane (M, B))``: unwrapped arc positions [m] (``start`` plus the
+        offset; wrap them modulo L) and lanes (+1 left, -1 right).
+
+    Raises:
+        ValueError: The lap is too short for ``count`` bots ``BOT_MIN_GAP`` apart.
+
+    >>> s, lane = bot_layout(20.0, np.random.default_rng(0), 1, 3, False, 1, np.zeros(1))
+    >>> s.tolist(), lane.tolist()
+    ([[2.0, 10.5, 19.0]], [[1.0, -1.0, 1.0]])
+    """
+    if count == 0:
+        return np.zeros((num_envs, 0)), np.zeros((num_envs, 0))
+    first = BOT_CLEAR_START
+    last = length - BOT_CLEAR_END - grid_length
+    span = last - first
+    if span < (count - 1) * BOT_MIN_GAP or span < 0.0:
+        raise ValueError(
+            f"{count} bots need {(count - 1) * BOT_MIN_GAP + BOT_CLEAR_START + BOT_CLEAR_END:.1f} "
+            f"m of lap plus the start grid ({grid_length:.2f} m), but the lap is {length:.2f} m; "
+            f"use fewer bots (num_bots) or a longer track")
+    k = np.arange(count, dtype=np.float64)
+    start = np.asarray(start, dtype=np.float64).reshape(num_envs, 1)
+    if randomize:
+        free = span - (count - 1) * BOT_MIN_GAP
+        offset = np.sort(rng.uniform(0.0, free, (num_envs, count)), axis=1) + k * BOT_MIN_GAP
+        lane = np.where(rng.random((num_envs, count)) < 0.5, 1.0, -1.0)
+    else:
+        even = np.linspace(0.0, span, count) if count > 1 else np.zeros(1)
+        offset = np.broadcast_to(even, (num_envs, count))
+        lane = np.broadcast_to(np.where(k % 2 == 0, inner_sign, -inner_sign),
+                               (num_envs, count)).astype(np.float64)
+    return start + first + offset, lane
 
 
 def replacement_candidates(track: Track, s: FloatArray, lane: FloatArray,

@@ -39,6 +39,8 @@ class TrackLookup:
         curvature: Signed curvature, shape (K + 1,) [1/m].
         width_left: Centre-to-left-border distance, shape (K + 1,) [m].
         width_right: Centre-to-right-border distance, shape (K + 1,) [m].
+        x: Centre-line x coordinate, shape (K + 1,) [m] (``track.point_at(s)``).
+        y: Centre-line y coordinate, shape (K + 1,) [m].
     """
 
     length: float
@@ -47,6 +49,8 @@ class TrackLookup:
     curvature: FloatArray
     width_left: FloatArray
     width_right: FloatArray
+    x: FloatArray
+    y: FloatArray
 
     @classmethod
     def from_track(cls, track: Track, ds: float = DEFAULT_DS) -> TrackLookup:
@@ -60,10 +64,13 @@ class TrackLookup:
         turns = round((heading[-1] - heading[0]) / (2.0 * math.pi))
         heading[-1] = heading[0] + 2.0 * math.pi * turns
         curvature = track.curvature_at(s)
-        for arr in (curvature, left, right):
+        centre = track.point_at(s)
+        x, y = centre[:, 0].copy(), centre[:, 1].copy()
+        for arr in (curvature, left, right, x, y):
             arr[-1] = arr[0]
         return cls(length=float(track.length), inv_ds=count / float(track.length),
-                   heading=heading, curvature=curvature, width_left=left, width_right=right)
+                   heading=heading, curvature=curvature, width_left=left, width_right=right,
+                   x=x, y=y)
 
 
 @njit(cache=True, inline="always")

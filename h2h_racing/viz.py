@@ -22,7 +22,8 @@ Open the file with ``rerun race.rrd``.
 What is recorded (entity paths):
 
 - ``/map/track/{left_border,right_border,centre,left_lane,right_lane,start_line}``: static
-  2-D line strips in track coordinates [m]; ``/map/obstacles``: obstacle boxes (outlines).
+  2-D line strips in track coordinates [m]; ``/map/obstacles``: obstacle boxes (outlines);
+  ``/map/bots``: the bot cars' boxes (outlines with a heading tick), every step.
 - ``/map/cars/<agent>/box``: the car's oriented box in its colour (``render.car_colour``);
   ``/map/cars/<agent>/trajectory/<k>``: its path as a growing line, in pieces of
   ``TRAJECTORY_PIECE`` points (so that the recording grows linearly with the race);
@@ -84,6 +85,7 @@ TRACK_COLOURS = {"left_border": (235, 235, 235), "right_border": (235, 235, 235)
                  "centre": (225, 190, 40), "left_lane": (120, 120, 130),
                  "right_lane": (120, 120, 130), "start_line": (230, 60, 60)}
 OBSTACLE_COLOUR = (160, 110, 60)
+BOT_COLOUR = (205, 205, 215)
 _LEVELS = {"start": "INFO", "lap": "INFO", "overtake": "INFO", "collision": "WARN",
            "off_track": "WARN", "infraction": "WARN", "penalty": "WARN", "reset": "DEBUG",
            "finish": "INFO", "retired": "WARN", "results": "INFO"}
@@ -487,6 +489,14 @@ class RaceRecorder:
                 text = (f"{agents[fault]} hit {agents[other]} ({agents[fault]} was behind, "
                         f"at fault)")
             self._event("collision", text, fault)
+        penalty = self.env.config.bot_penalty
+        for _, car, bot, car_at_fault in ev.bot_contacts:
+            if car_at_fault:
+                text = f"{agents[car]} hit bot_car_{bot} from behind (at fault)"
+            else:
+                text = (f"bot_car_{bot} ran into {agents[car]} from behind: every bot pauses "
+                        f"{penalty:g} s")
+            self._event("collision", text, car)
         n = len(agents)
         flags = {name: getattr(ev, name)[0].tolist()
                  for name in ("off_track", "reversed", "immobilised", "penalised", "replaced",
@@ -523,6 +533,13 @@ class RaceRecorder:
         rr, rec, core = self._rr, self.rec, self.env.core
         strips = rr.LineStrips2D.from_fields
         cfg = core.config
+        if core.num_bots:
+            outlines = _box_corners(core.bot_position[0], core.bot_yaw[0], cfg.car.length,
+                                    cfg.car.width)
+            ticks = np.stack([0.5 * (outlines[:, 0] + outlines[:, 1]), core.bot_position[0]],
+                             axis=1)
+            rec.log("/map/bots", rr.LineStrips2D(list(outlines) + list(ticks), radii=0.015,
+                                                 colors=BOT_COLOUR, draw_order=4.0))
         live = [i for i, a in enumerate(self.agents) if a in infos or not infos]
         boxes = _box_corners(core.position[0], core.yaw[0], cfg.car.length, cfg.car.width)
         position = core.position[0].tolist()

@@ -23,6 +23,17 @@ Observation groups (a ``TensorDict`` with batch size ``num_envs * learners``):
 - ``camera`` (with ``observations="camera"``): the learner's camera as (B, C, H, W) float32 in
   [0, 1], ready for rsl-rl's ``CNNModel``.
 
+Training starts: ``random_starts`` (the default) starts each episode of a copy at a random
+point of the lap; ``EnvConfig.round_robin_starts`` instead moves each copy's start
+``round_robin_advance`` of a lap further at every reset of that copy (DeepRacer's training
+starts; each copy counts its own episodes, the first on the start line) and takes precedence.
+``EnvConfig.alternate_direction`` is refused: the copies of one core share a driving direction
+but reset one at a time (see ``RacingVecEnv``).
+
+Bot cars (``race_type="head_to_bot"`` or ``num_bots``) drive in every copy; the learner's state
+observation sees them in its opponent slots (the ``critic`` group's privileged part lists the
+other cars only).
+
 DeepRacer inputs: ``reward_function`` replaces the built-in reward by a DeepRacer
 ``reward_function(params)`` file, loaded once per learner row (module-level state stays per
 car and per copy), with the env's rules (called from the first step, ``steps == 1``; a frozen car
@@ -78,13 +89,20 @@ class RacingVecEnv(VecEnv):
         track: A ``Track`` to use instead of loading ``config.track``.
         random_starts: Start each episode at a random point of the lap (drawn from the core's
             generator), as DeepRacer's training starts move round the lap, so that a policy
-            learns every corner from every state; False starts on the start line.
+            learns every corner from every state; False starts on the start line. Ignored
+            with ``config.round_robin_starts`` (DeepRacer's own rotation, done by the core).
         reward_function: A DeepRacer reward file (``reward_function(params)``) for the
             learner cars; None keeps the built-in reward.
         simtrace: Folder for DeepRacer simtrace CSV and metrics JSON of the learner cars of
             copies ``0 .. simtrace_envs - 1`` (one DRfC worker each); None writes none. Call
             ``close()`` at the end to write the metrics and unfinished episodes.
         simtrace_envs: How many copies to log (1-10; logging costs a few us per row).
+
+    Raises:
+        ValueError: For bad arguments, and for ``config.alternate_direction``: the copies
+            share one driving direction but reset one at a time, so they cannot alternate.
+            Train on ``track.reversed()``, switch with ``set_track(track.reversed())``
+            between ``learn()`` calls, or use the PettingZoo env, which alternates.
     """
 
     def __init__(self, config: EnvConfig, num_envs: int, learners: int | None = None,
@@ -102,6 +120,14 @@ class RacingVecEnv(VecEnv):
                              "(a driver name such as 'racing_line', or a driver object)")
         if observations not in ("state", "camera"):
             raise ValueError(f"observations must be 'state' or 'camera', got {observations!r}")
+        if config.alternate_direction:
+            raise ValueError(
+                "RacingVecEnv cannot honour EnvConfig.alternate_direction: its env copies share "
+                "one driving direction (one track in the batched core) but end and reset one at "
+                "a time. Train on the reversed track (track=load_track(name).reversed()), switch "
+                "direction between learn() calls with set_track(track.reversed()), or use the "
+                "PettingZoo env (h2h_racing.parallel_env(alternate_direction=True)), which "
+                "alternates per episode")
         self.config = config
         self.cfg = config.to_dict()
         self.track = track if track is not None else load_track(config.track)
@@ -285,7 +311,8 @@ class RacingVecEnv(VecEnv):
 
 
     def _starts(self, count: int) -> npt.NDArray[np.float64] | None:
-        if not self.random_starts:
+        # None lets the core place the start: on the line, or its round-robin rotation.
+        if not self.random_starts or self.config.round_robin_starts:
             return None
         return self.core.rng.uniform(0.0, self.track.length, count)
 

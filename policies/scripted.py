@@ -185,9 +185,9 @@ class RacingLine:
     command is the lowest profile speed over the next ``speed_preview`` seconds, which
     makes the speed controller (a first-order lag) brake early enough.
 
-    Opponent handling is minimal and conservative: when another racing car is within
-    ``follow_gap`` metres ahead and overlaps the line, the driver steers to the side of it
-    with more room and caps its speed at the other car's speed plus ``closing_speed``.
+    Opponent handling is minimal and conservative: when another racing car (or a bot car) is
+    within ``follow_gap`` metres ahead and overlaps the line, the driver steers to the side of
+    it with more room and caps its speed at the other car's speed plus ``closing_speed``.
 
     Args:
         grip_factor: Fraction of ``mu g`` the speed profile uses in corners.
@@ -237,7 +237,7 @@ class RacingLine:
         offset = line.offset_at(s_target)
         horizon = np.maximum(v, 1.0) * self.speed_preview
         speed = line.min_speed_ahead(s, horizon)
-        if core.num_cars > 1:
+        if core.num_cars > 1 or core.num_bots:
             offset, speed = self._avoid(core, car, s_target, offset, speed)
         target = core.track.point_at(s_target, offset)
         steer = pursuit_steer(core, car, target)
@@ -245,7 +245,7 @@ class RacingLine:
 
     def _avoid(self, core: RaceCore, car: int, s_target: FloatArray, offset: FloatArray,
                speed: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Keep clear of the nearest racing car alongside or ahead (per env copy).
+        """Keep clear of the nearest racing car or bot alongside or ahead (per env copy).
 
         A car alongside (track gap below a car length plus 0.15 m) pushes the lateral
         target to at least a car width plus 0.15 m from it, on the side we are already on.
@@ -256,6 +256,16 @@ class RacingLine:
         params = core.config.car
         gap = core.distance - core.distance[:, car : car + 1]  # (E, N), > 0: ahead
         others = core.racing & (np.arange(core.num_cars) != car)[None, :]
+        lateral_of, speed_of = core.d, core.speed
+        if core.num_bots:
+            # Bots join the candidates (columns N..N+B-1), by their wrapped arc gap.
+            length = core.track.length
+            bot_gap = core.bot_s - core.s[:, car : car + 1]
+            bot_gap -= length * np.floor(bot_gap / length + 0.5)
+            gap = np.concatenate([gap, bot_gap], axis=1)
+            others = np.concatenate([others, np.ones(bot_gap.shape, dtype=bool)], axis=1)
+            lateral_of = np.concatenate([core.d, core.bot_d], axis=1)
+            speed_of = np.concatenate([core.speed, core.bot_speed], axis=1)
         near = others & (gap > -params.length - 0.15) & (gap < self.follow_gap)
         if not near.any():
             return offset, speed
@@ -263,8 +273,8 @@ class RacingLine:
         nearest = np.argmin(np.where(near, np.abs(gap), np.inf), axis=1)
         found = near[rows, nearest]
         other_gap = gap[rows, nearest]
-        other_d = core.d[rows, nearest]
-        other_v = core.speed[rows, nearest]
+        other_d = lateral_of[rows, nearest]
+        other_v = speed_of[rows, nearest]
         my_d = core.d[:, car]
         left, right = core.track.half_widths_at(s_target)
         lo, hi = -right + self.margin, left - self.margin

@@ -13,7 +13,11 @@ docs where the two differ:
 - ``closest_waypoints`` brackets P by arc length (``track_geom/track_data.py``,
   ``bisect_right`` over the waypoints' normalised arc positions, the closing one being 1.0);
 - ``speed`` and ``steering_angle`` are the commanded action; ``heading`` is in degrees,
-  ``objects_heading`` in radians; ``steps`` is a float counted from 1.
+  ``objects_heading`` in radians; ``steps`` is a float counted from 1;
+- the objects are, in DeepRacer's insertion order, the obstacles, the bot cars
+  (``bot_car_i``) and the other cars; with bot cars every object's ``objects_speed`` is the
+  bots' speed (``BOT_CAR_SPEED``, DeepRacer's quirk), without them the other cars report
+  their measured speed and obstacles 0.0.
 
 Every call returns all 27 keys (``PARAM_KEYS``); without objects the lists are empty and
 ``closest_objects`` is ``[0, 0]``.
@@ -186,6 +190,8 @@ class ParamsBuilder:
               off_track: BoolArray | None = None, crashed: BoolArray | None = None,
               obstacle_position: FloatArray | None = None,
               obstacle_yaw: FloatArray | None = None,
+              bot_position: FloatArray | None = None, bot_yaw: FloatArray | None = None,
+              bot_speed: float = 0.0,
               cars: Sequence[int] | None = None) -> list[dict[str, Any] | None]:
         """Return one params dict per car (None for cars not in ``cars``).
 
@@ -205,6 +211,11 @@ class ParamsBuilder:
                 hitting an obstacle) this step, shape (N,).
             obstacle_position: Obstacle centres, shape (K, 2) [m].
             obstacle_yaw: Obstacle headings, shape (K,) [rad].
+            bot_position: Bot car centres, shape (B, 2) [m]; they follow the obstacles in
+                the objects.
+            bot_yaw: Bot car headings, shape (B,) [rad].
+            bot_speed: The bots' speed [m/s]; with B > 0 it is every object's
+                ``objects_speed`` (DeepRacer reports ``BOT_CAR_SPEED`` for all objects).
             cars: Which cars to build params for; None for all. Only these cars' progress
                 state advances.
 
@@ -221,10 +232,18 @@ class ParamsBuilder:
         obstacle_position = np.asarray(obstacle_position, dtype=np.float64).reshape(-1, 2)
         obstacle_yaw = np.asarray(obstacle_yaw, dtype=np.float64).reshape(-1)
         k = len(obstacle_position)
+        if bot_position is None:
+            bot_position = np.zeros((0, 2))
+            bot_yaw = np.zeros(0)
+        bot_position = np.asarray(bot_position, dtype=np.float64).reshape(-1, 2)
+        bot_yaw = np.asarray(bot_yaw, dtype=np.float64).reshape(-1)
+        b = len(bot_position)
         if steps <= self._last_steps:
             self.reset()
         self._last_steps = steps
-        objects = np.concatenate((obstacle_position, position))
+        # Objects in DeepRacer's insertion order: obstacles, bot cars, cars.
+        movers = np.concatenate((bot_position, position)) if b else position
+        objects = np.concatenate((obstacle_position, movers))
         m = len(objects)
         model_point = np.empty((n, 2))
         proj = np.empty(n)
@@ -248,17 +267,21 @@ class ParamsBuilder:
                            o_dist, o_band)
             cached = self._obstacle_cache = (obstacle_position.copy(), o_proj, o_dist, o_band)
         obj_proj[:k], obj_dist[:k], obj_band[:k] = cached[1], cached[2], cached[3]
-        _object_kernel(position, self._centre.table, self._ring_inner, obj_proj[k:],
+        _object_kernel(movers, self._centre.table, self._ring_inner, obj_proj[k:],
                        obj_dist[k:], obj_band[k:])
         length = self._centre.length
         # Scalars from here on: with a handful of cars, Python floats beat small numpy ops.
         start = [(v / self.track.length) % 1.0 for v in np.ravel(start_distance).tolist()]
         yaw_l = yaw.tolist()
-        obj_yaw = obstacle_yaw.tolist() + yaw_l
+        obj_yaw = obstacle_yaw.tolist() + bot_yaw.tolist() + yaw_l
         # objects_heading: the yaw in radians in (-pi, pi].
         obj_heading_l = [math.atan2(math.sin(a), math.cos(a)) for a in obj_yaw]
         obj_heading_l = [a + 2.0 * math.pi if a <= -math.pi else a for a in obj_heading_l]
-        obj_speed = [0.0] * k + (np.ravel(speed).tolist() if speed is not None else [0.0] * n)
+        if b:
+            obj_speed = [float(bot_speed)] * m
+        else:
+            obj_speed = [0.0] * k + (np.ravel(speed).tolist() if speed is not None
+                                     else [0.0] * n)
         # objects_left_of_center (track_data.py): inner_poly.contains(obj) XOR (not is_ccw),
         # inner_poly = Polygon(C, [inner_border]).
         obj_left = [b != self._not_ccw for b in obj_band.tolist()]
@@ -301,8 +324,10 @@ class ParamsBuilder:
             nxt = bisect.bisect_right(wp_ndist, nd)
             prv = nxt - 1 if nxt > 0 else last_wp
             nxt = 0 if nxt > last_wp else nxt
-            # Objects: obstacles first, then the other cars, each in insertion order.
-            order = list(range(k)) + [k + j for j in range(n) if j != i]
+            # Objects: obstacles first, then the bots, then the other cars, each in
+            # insertion order.
+            kb = k + b
+            order = list(range(kb)) + [kb + j for j in range(n) if j != i]
             if order:
                 o_proj = [obj_proj_l[j] for j in order]
                 closest = _closest_objects(o_proj, p)
@@ -367,7 +392,8 @@ class ParamsBuilder:
             off_track=None if events is None else events.off_track[e],
             crashed=None if events is None else events.crashed[e],
             obstacle_position=core.obstacle_position[e], obstacle_yaw=core.obstacle_yaw[e],
-            cars=cars)
+            bot_position=core.bot_position[e], bot_yaw=core.bot_yaw[e],
+            bot_speed=core.config.bot_speed, cars=cars)
 
 
 def copy_params(params: dict[str, Any]) -> dict[str, Any]:

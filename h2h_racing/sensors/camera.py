@@ -9,8 +9,8 @@ the spectator renderer or on ``render_mode``:
 2. **Ground** below the horizon: a greyscale texture of the whole track (surface, painted
    border lines, dashed centre line, start line, floor) pre-rendered once, warped into the
    image with the ground-plane homography of the camera's pose (``cv2.warpPerspective``).
-3. **Boxes**: the other cars and the obstacles as solid 3-D boxes. Their visible faces are
-   clipped to the near plane and the image in a compiled kernel and filled with
+3. **Boxes**: the other cars, the obstacles and the bot cars as solid 3-D boxes. Their visible
+   faces are clipped to the near plane and the image in a compiled kernel and filled with
    ``cv2.fillConvexPoly``, far boxes first (painter's order), so nearer boxes hide farther ones.
 
 Camera frame (OpenCV convention): ``x_c`` right, ``y_c`` down, ``z_c`` along the optical axis.
@@ -73,6 +73,8 @@ OBSTACLE_SHADE = 225
 """Grey level of the top face of an obstacle box."""
 CAR_SHADES = (130, 15, 240, 70, 160, 35, 105, 190)
 """Grey level of the top face of car ``i`` is ``CAR_SHADES[i % 8]`` (the same in every view)."""
+BOT_SHADE = 175
+"""Grey level of the top face of every bot car (a shade no car has)."""
 FACE_FACTORS = (0.80, 0.62, 1.0)
 """Shade factor of the front/rear faces, of the side faces and of the top face of a box."""
 
@@ -211,9 +213,12 @@ def box_faces_kernel(cam_xy, cam_yaw, car_pos, car_yaw, done, obs_pos, obs_yaw,
         cam_xy: Optical centres on the ground plane, (E, N, C, 2) [m].
         cam_yaw: Heading of each car, (E, N) [rad].
         car_pos, car_yaw, done: Car centres (E, N, 2) [m], headings (E, N) [rad], parked cars.
-        obs_pos, obs_yaw: Obstacle centres (E, K, 2) [m] and headings (E, K) [rad].
-        car_size, obs_size: (length, width, height) of the boxes [m].
-        car_shades: Top-face grey level of each car, (N,). obs_shade: that of obstacles.
+        obs_pos, obs_yaw: Centres (E, K, 2) [m] and headings (E, K) [rad] of the other boxes
+            (obstacles, then bot cars).
+        car_size: (length, width, height) of the cars [m]. obs_size: that of each other box,
+            (K, 3) [m].
+        car_shades: Top-face grey level of each car, (N,). obs_shade: that of each other box,
+            (K,).
         cam_h, sin_p, cos_p, focal, cx, cy, near, width, height: Camera model (module doc).
         count: Out, faces to draw per camera, (E, N, C).
         nverts: Out, vertices of each face, (E, N, C, F).
@@ -254,7 +259,8 @@ def box_faces_kernel(cam_xy, cam_yaw, car_pos, car_yaw, done, obs_pos, obs_yaw,
                         half = 0.5 * math.hypot(car_size[0], car_size[1])
                     else:
                         bx, by = obs_pos[e, b - num_cars, 0], obs_pos[e, b - num_cars, 1]
-                        half = 0.5 * math.hypot(obs_size[0], obs_size[1])
+                        half = 0.5 * math.hypot(obs_size[b - num_cars, 0],
+                                                obs_size[b - num_cars, 1])
                     ahead = (bx - ox) * cf + (by - oy) * sf
                     if ahead + half <= 0.0:
                         continue
@@ -281,8 +287,8 @@ def box_faces_kernel(cam_xy, cam_yaw, car_pos, car_yaw, done, obs_pos, obs_yaw,
                     else:
                         k = b - num_cars
                         bx, by, byaw = obs_pos[e, k, 0], obs_pos[e, k, 1], obs_yaw[e, k]
-                        bl, bw, bh = obs_size[0], obs_size[1], obs_size[2]
-                        top = obs_shade
+                        bl, bw, bh = obs_size[k, 0], obs_size[k, 1], obs_size[k, 2]
+                        top = obs_shade[k]
                     cb, sb = math.cos(byaw), math.sin(byaw)
                     # The 8 corners in camera coordinates: P - C = (dx, dy, z - cam_h).
                     for q in range(8):
@@ -448,10 +454,10 @@ class CameraSensor:
         self._k_inv_t = k_inv @ shift
         self._flags = cv2.WARP_INVERSE_MAP | (
             cv2.INTER_LINEAR if config.interpolation == "linear" else cv2.INTER_NEAREST)
-        self._car_shades = np.array(CAR_SHADES, dtype=np.int64)
         self._hist: UInt8Array | None = None
         self._last_steps: npt.NDArray[np.int64] | None = None
         self._buffers: dict[str, np.ndarray] = {}
+        self._tables: dict[str, tuple[np.ndarray, ...]] = {}
 
     # ------------------------------------------------------------------ spaces
     def space(self) -> spaces.Box:
@@ -511,16 +517,17 @@ class CameraSensor:
             raise ValueError(f"frames must be a C-contiguous uint8 array of shape {shape}, got "
                              f"{frames.dtype}{frames.shape}; pass None to allocate one")
         cam_xy, maps = self.ground_maps(core.position, core.yaw)
-        num_faces = (n_n - 1 + core.num_obstacles) * FACES_PER_BOX
+        boxes, yaws, sizes, shades = self._other_boxes(core)
+        num_faces = (n_n - 1 + boxes.shape[1]) * FACES_PER_BOX
         count = self._buffer("count", (e_n, n_n, c_n), np.int64)
         nverts = self._buffer("nverts", (e_n, n_n, c_n, max(num_faces, 1)), np.int64)
         verts = self._buffer("verts", (e_n, n_n, c_n, max(num_faces, 1), MAX_VERTICES, 2),
                              np.int32)
         shade = self._buffer("shade", (e_n, n_n, c_n, max(num_faces, 1)), np.int64)
         box_faces_kernel(cam_xy, core.yaw, core.position,
-                         core.yaw, core.done, core.obstacle_position, core.obstacle_yaw,
-                         self.car_size, self.obstacle_size, self._car_shades,
-                         OBSTACLE_SHADE, cfg.height_m, self._sin_p, self._cos_p, self.focal,
+                         core.yaw, core.done, boxes, yaws,
+                         self.car_size, sizes, self._car_shades(n_n),
+                         shades, cfg.height_m, self._sin_p, self._cos_p, self.focal,
                          self.cx, self.cy, cfg.near_m, float(w), float(h), count, nverts,
                          verts, shade)
         flat = frames.reshape(-1, h, w)
@@ -546,6 +553,31 @@ class CameraSensor:
                 for k in range(int(counts[f])):
                     fill(img, verts_f[f, k, :nv[k]], sh[k], cv2.LINE_8, SHIFT)
         return frames
+
+    def _car_shades(self, num_cars: int) -> npt.NDArray[np.int64]:
+        """Top-face grey level of each car, (N,) (``car_shade``: they repeat every 8 cars)."""
+        key = f"car_shades_{num_cars}"
+        if key not in self._tables:
+            self._tables[key] = (np.array([car_shade(i) for i in range(num_cars)],
+                                          dtype=np.int64),)
+        return self._tables[key][0]
+
+    def _other_boxes(self, core: RaceCore,
+                     ) -> tuple[FloatArray, FloatArray, FloatArray, npt.NDArray[np.int64]]:
+        """Obstacles then bot cars: centres (E, K + B, 2), headings (E, K + B), sizes
+        (K + B, 3) and top-face shades (K + B,)."""
+        k, b = core.num_obstacles, core.num_bots
+        key = f"boxes_{k}_{b}"
+        table = self._tables.get(key)
+        if table is None:
+            sizes = np.concatenate([np.broadcast_to(self.obstacle_size, (k, 3)),
+                                    np.broadcast_to(self.car_size, (b, 3))])
+            shades = np.array([OBSTACLE_SHADE] * k + [BOT_SHADE] * b, dtype=np.int64)
+            table = self._tables[key] = (np.ascontiguousarray(sizes), shades)
+        if not b:
+            return core.obstacle_position, core.obstacle_yaw, table[0], table[1]
+        return (np.concatenate([core.obstacle_position, core.bot_position], axis=1),
+                np.concatenate([core.obstacle_yaw, core.bot_yaw], axis=1), table[0], table[1])
 
     def render(self, core: RaceCore, env_index: int = 0, car_index: int = 0) -> UInt8Array:
         """Return the current frame of one car, (H, W, C_cams) uint8, without history."""

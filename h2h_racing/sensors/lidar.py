@@ -3,8 +3,9 @@
 The lidar is a planar scanner at ``mount`` in the car's frame. Beam ``k`` of ``B`` points at
 the bearing ``alpha_k = -fov/2 + k fov / (B - 1)`` from the car's heading (counter-clockwise
 positive, so beam 0 looks right-rearward and beam B-1 left-rearward, as Gazebo orders them).
-It sees the other cars and the obstacles of the same env copy as boxes of unlimited height
-(DeepRacer tracks have no walls); cars whose episode is over (parked) are not seen.
+It sees the other cars, the obstacles and the bot cars of the same env copy as boxes of
+unlimited height (DeepRacer tracks have no walls); cars whose episode is over (parked) are not
+seen.
 
 Each beam is intersected with each box by the slab method, in the box's frame: with the ray
 ``o + t d`` (``o``, ``d`` rotated into the box frame, ``t`` in metres) and half-extents
@@ -55,8 +56,9 @@ def scan_kernel(position, yaw, done, obs_pos, obs_yaw, car_half, obs_half, mount
 
     Args:
         position, yaw, done: Cars (E, N, 2) [m], (E, N) [rad], parked flags (E, N).
-        obs_pos, obs_yaw: Obstacles (E, K, 2) [m], (E, K) [rad].
-        car_half, obs_half: Half length and half width of the boxes, (2,) [m].
+        obs_pos, obs_yaw: Other boxes (obstacles, then bots) (E, K, 2) [m], (E, K) [rad].
+        car_half: Half length and half width of the cars, (2,) [m].
+        obs_half: Half length and half width of each other box, (K, 2) [m].
         mount: Scanner position in the car frame, (2,) [m].
         cos_a, sin_a: Cosine and sine of the beam bearings, (B,).
         reach: Boxes farther than this are skipped [m].
@@ -83,7 +85,7 @@ def scan_kernel(position, yaw, done, obs_pos, obs_yaw, car_half, obs_half, mount
                 else:
                     bx, by = obs_pos[e, b - num_cars, 0], obs_pos[e, b - num_cars, 1]
                     byaw = obs_yaw[e, b - num_cars]
-                    hx, hy = obs_half[0], obs_half[1]
+                    hx, hy = obs_half[b - num_cars, 0], obs_half[b - num_cars, 1]
                 rx, ry = ox - bx, oy - by
                 if math.hypot(rx, ry) - math.hypot(hx, hy) > reach:
                     continue
@@ -170,10 +172,21 @@ class LidarSensor:
         """Exact range of the nearest hit of every beam, (E, N, B) [m], ``inf`` for none
         within ``max(max_range, sector_clip)`` (plus three noise deviations)."""
         out = np.empty((core.num_envs, core.num_cars, self.config.beams))
-        scan_kernel(core.position, core.yaw, core.done, core.obstacle_position,
-                    core.obstacle_yaw, self._car_half, self._obs_half, self._mount, self._cos,
-                    self._sin, self._reach, out)
+        boxes, yaws, halves = self._other_boxes(core)
+        scan_kernel(core.position, core.yaw, core.done, boxes, yaws, self._car_half, halves,
+                    self._mount, self._cos, self._sin, self._reach, out)
         return out
+
+    def _other_boxes(self, core: RaceCore) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Obstacles then bot cars: centres (E, K + B, 2), headings (E, K + B), halves
+        (K + B, 2)."""
+        k, b = core.num_obstacles, core.num_bots
+        halves = np.concatenate([np.broadcast_to(self._obs_half, (k, 2)),
+                                 np.broadcast_to(self._car_half, (b, 2))])
+        if not b:
+            return core.obstacle_position, core.obstacle_yaw, halves
+        return (np.concatenate([core.obstacle_position, core.bot_position], axis=1),
+                np.concatenate([core.obstacle_yaw, core.bot_yaw], axis=1), halves)
 
     def observe(self, core: RaceCore, rng: np.random.Generator | None = None) -> Float32Array:
         """Return the lidar observation of every car, (E, N, B) or (E, N, sectors) float32.

@@ -16,7 +16,8 @@ index       feature                                                       scale
 15, 16      track half-width left, right                                  / 0.5 m
 17          race position (0 = leader, 1 = last)                          -
 18          frozen by a penalty (1) or racing (0)                         -
-then per opponent slot (nearest first by track distance within 5 m, ``opponent_slots``):
+then per opponent slot (nearest first by track distance within 5 m, ``opponent_slots``;
+the other cars and the bot cars compete for the slots alike):
 +0          present (1) or empty slot (0)                                 -
 +1          arc gap to it, ahead positive                                 / 5 m
 +2          its lateral offset minus ours                                 / 1 m
@@ -27,7 +28,8 @@ then per obstacle slot (nearest ahead within 5 m first, ``obstacle_slots``):
 +2          its lateral offset minus ours                                 / 1 m
 ==========  ============================================================  =================
 
-Empty slots are all zeros. Ties in distance go to the lower car or obstacle index.
+Empty slots are all zeros. Ties in distance go to the lower car or obstacle index (cars
+before bots). A bot's speed is its speed along the track over the last step (0 while paused).
 """
 
 from __future__ import annotations
@@ -68,8 +70,9 @@ def state_observation(core: RaceCore) -> npt.NDArray[np.float32]:
                     state_size(cfg.opponent_slots, cfg.obstacle_slots)), dtype=np.float32)
     _state_kernel(core.s, core.d, core.yaw, core.velocity, core.yaw_rate, core.steer,
                   core.speed, core.rank, core._racing, core.done, core.obstacle_s,
-                  core.obstacle_d, lut.heading, lut.curvature, lut.width_left, lut.width_right,
-                  lut.inv_ds, lut.length, cfg.car.max_speed, cfg.car.max_steer,
+                  core.obstacle_d, core.bot_s, core.bot_d, core.bot_speed, lut.heading,
+                  lut.curvature, lut.width_left, lut.width_right, lut.inv_ds, lut.length,
+                  cfg.car.max_speed, cfg.car.max_steer,
                   cfg.opponent_slots, cfg.obstacle_slots, LOOKAHEAD, out)
     return out
 
@@ -94,14 +97,16 @@ def _take_nearest(distance):  # pragma: no cover
 
 @njit(cache=True)
 def _state_kernel(s, d, yaw, velocity, yaw_rate, steer, speed, rank, racing, done,
-                  obstacle_s, obstacle_d, heading, curvature, width_left, width_right,
-                  inv_ds, length, max_speed, max_steer, m_slots, k_slots, lookahead,
+                  obstacle_s, obstacle_d, bot_s, bot_d, bot_speed, heading, curvature,
+                  width_left, width_right, inv_ds, length, max_speed, max_steer, m_slots,
+                  k_slots, lookahead,
                   out):  # pragma: no cover
     """Compiled loop over env copies and cars filling ``out`` (E, N, F)."""
     num_envs, num_cars = s.shape
     num_obstacles = obstacle_s.shape[1]
+    num_bots = bot_s.shape[1]
     inv_v = 1.0 / max_speed
-    gaps = np.empty(num_cars)
+    gaps = np.empty(num_cars + num_bots)
     ahead = np.empty(max(num_obstacles, 1))
     ahead_distance = np.empty(max(num_obstacles, 1))
     for e in range(num_envs):
@@ -128,11 +133,15 @@ def _state_kernel(s, d, yaw, velocity, yaw_rate, steer, speed, rank, racing, don
             row[17] = (rank[e, i] - 1) / (num_cars - 1) if num_cars > 1 else 0.0
             row[18] = 0.0 if (racing[e, i] or done[e, i]) else 1.0
             col = 19
-            # Opponents: the m_slots nearest by |arc gap| within SENSE_RANGE.
+            # Opponents: the m_slots nearest other cars and bots by |arc gap| within
+            # SENSE_RANGE (candidate j >= num_cars is bot j - num_cars).
             for j in range(num_cars):
                 gap = wrap_arc(s[e, j] - si, length)
                 gaps[j] = abs(gap) if (j != i and not done[e, j]
                                        and abs(gap) <= SENSE_RANGE) else np.inf
+            for j in range(num_bots):
+                gap = wrap_arc(bot_s[e, j] - si, length)
+                gaps[num_cars + j] = abs(gap) if abs(gap) <= SENSE_RANGE else np.inf
             for slot in range(m_slots):
                 best = _take_nearest(gaps)
                 base = col + 4 * slot
@@ -140,11 +149,17 @@ def _state_kernel(s, d, yaw, velocity, yaw_rate, steer, speed, rank, racing, don
                     for f in range(4):
                         row[base + f] = 0.0
                     continue
-                gap = wrap_arc(s[e, best] - si, length)
+                if best < num_cars:
+                    other_s, other_d, other_v = s[e, best], d[e, best], speed[e, best]
+                else:
+                    other_s = bot_s[e, best - num_cars]
+                    other_d = bot_d[e, best - num_cars]
+                    other_v = bot_speed[e, best - num_cars]
+                gap = wrap_arc(other_s - si, length)
                 row[base] = 1.0
                 row[base + 1] = _clip(gap / SENSE_RANGE)
-                row[base + 2] = _clip(d[e, best] - di)
-                row[base + 3] = _clip((speed[e, best] - speed[e, i]) * inv_v)
+                row[base + 2] = _clip(other_d - di)
+                row[base + 3] = _clip((other_v - speed[e, i]) * inv_v)
             col += 4 * m_slots
             # Obstacles: the k_slots nearest ahead within SENSE_RANGE.
             for k in range(num_obstacles):

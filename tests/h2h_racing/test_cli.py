@@ -65,6 +65,19 @@ class TestRaceCommand:
         lines = [line for line in out.splitlines() if line.strip().startswith(("1 ", "2 "))]
         assert len(lines) == 2
 
+    def test_head_to_bot_lists_only_the_cars(self, capsys: pytest.CaptureFixture[str]) -> None:
+        assert main(["race", "--track", "oval", "--laps", "1", "--race-type", "head_to_bot",
+                     "--bots", "2", "--bot-speed", "0.5"]) == 0
+        out = capsys.readouterr().out
+        rows = [line for line in out.splitlines() if line[:3].strip().isdigit()]
+        assert len(rows) == 2 and "car_0" in out and "car_1" in out and "bot" not in rows[0]
+        assert "2 bot cars at 0.5 m/s" in out
+
+    def test_bad_bot_count_is_reported(self, capsys: pytest.CaptureFixture[str]) -> None:
+        assert main(["race", "--track", "oval", "--race-type", "head_to_bot", "--bots",
+                     "40"]) == 2
+        assert "num_bots" in capsys.readouterr().err
+
     def test_unknown_driver_is_reported(self, capsys: pytest.CaptureFixture[str]) -> None:
         assert main(["race", "--track", "oval", "--drivers", "racing_line,nobody"]) == 2
         assert "nobody" in capsys.readouterr().err

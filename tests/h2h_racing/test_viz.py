@@ -173,6 +173,36 @@ class TestRecordingContents:
             assert image.std() > 5.0, "the camera image is blank"
 
 
+class TestBots:
+    """Bot cars are drawn on the map every step and their contacts are logged as events."""
+
+    def test_bots_and_a_bot_contact_are_recorded(self, tmp_path: Path) -> None:
+        from conftest import circle_track
+
+        track = circle_track()
+        env = h2h_racing.parallel_env(
+            track=track, num_cars=1, num_bots=2, bot_lane_change=False, camera=SMALL_CAMERA,
+            rules=RaceRules(laps=1, time_limit=20.0, immobilised_steps=10**6))
+        path = tmp_path / "bots.rrd"
+        recording = viz.RecordingEnv(env, path=path)
+        recording.reset(seed=0)
+        # The car crawls (0.5 m/s) on the inner lane 0.6 m ahead of bot 0 (0.75 m/s): the bot
+        # closes 0.25 m/s on a 0.28 m gap and runs into it from behind within ~1.2 s.
+        core = env.core
+        core.s[0, 0], core.d[0, 0], core.distance[0, 0] = 2.6, 0.25, 2.6
+        core.position[0, 0] = track.point_at(2.6, 0.25)
+        core.yaw[0, 0] = track.heading_at(2.6)
+        core._sync_physics()
+        for _ in range(30):
+            recording.step({"car_0": np.array([0.0, -1.0])})
+        recording.close()
+        batches = read_rrd(path)
+        assert sorted(column(batches["/map/bots"], "step")) == list(range(31))
+        texts = first(column(batches["/events"], "TextLog:text"))
+        assert any("bot_car_0 ran into car_0 from behind: every bot pauses 5 s" in t
+                   for t in texts), texts
+
+
 class TestSensorsFromTheEnv:
     """With camera and lidar sensors the recorder logs what the env observed."""
 

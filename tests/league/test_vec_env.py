@@ -50,6 +50,21 @@ class TestRows:
         # The opponent (car 1) moved although no action was given for it.
         assert np.all(env.core.speed[:, 1] > 0.0)
 
+    def test_bots_fill_the_opponent_slots(self) -> None:
+        env = RacingVecEnv(training_config(num_cars=1, race_type="head_to_bot"), num_envs=2,
+                           random_starts=False)
+        obs = env.get_observations()
+        # One car at the start; of the 3 bots the last starts L - 1.0 - 0.3235 m round, i.e.
+        # 1.3235 m behind it (slot 0: gap -1.3235 / 5 = -0.2647), the first 2.0 m ahead
+        # (slot 1: 2.0 / 5 = 0.4). The critic adds nothing for bots.
+        assert obs["policy"][:, 19].tolist() == [1.0, 1.0]
+        assert obs["policy"][:, 20].tolist() == pytest.approx([-0.2647] * 2, abs=1e-6)
+        assert obs["policy"][:, 23].tolist() == [1.0, 1.0]
+        assert obs["policy"][:, 24].tolist() == pytest.approx([0.4] * 2, abs=1e-6)
+        assert obs["critic"].shape == (2, 33)
+        env.step(torch.zeros(2, 2))
+        assert env.core.bot_clock.tolist() == pytest.approx([1.0 / 15.0] * 2)
+
     def test_opponent_required_when_some_cars_are_not_learners(self) -> None:
         with pytest.raises(ValueError, match="opponent"):
             RacingVecEnv(training_config(), num_envs=2, learners=1)

@@ -197,3 +197,30 @@ class TestActionMapping:
         actions = np.array([[-0.6, 0.3]], dtype=np.float32)
         steer, speed = core.config.commands(actions)
         assert np.allclose(to_action(core, steer, speed), actions, atol=1e-6)
+
+
+class TestBotAvoidance:
+    """RacingLine treats bot cars like cars when it keeps clear (by hand on the circle)."""
+
+    def test_bot_ahead_on_the_line_is_passed_and_followed(self) -> None:
+        import sys
+
+        from h2h_racing.config import EnvConfig
+        from h2h_racing.core import RaceCore
+
+        track = sys.modules["conftest"].circle_track()  # R = 3 m, half-width 0.5 m
+        core = RaceCore(EnvConfig(track=track.name, num_cars=1, num_bots=1,
+                                  bot_lane_change=False), track)
+        core.reset(seed=0)
+        # The bot starts at s = 2.0 on the inner lane (d = +0.25), at rest; put the car on
+        # that lane 0.8 m behind it.
+        core.s[0, 0], core.d[0, 0], core.distance[0, 0] = 1.2, 0.25, 1.2
+        driver = RacingLine()
+        offset, speed = driver._avoid(core, 0, np.array([1.6]), np.array([0.25]),
+                                      np.array([3.0]))
+        # The bot overlaps the line 0.8 m ahead (> 0.3235 + 0.15: not alongside). Room: 0.5 -
+        # 0.25 = 0.25 m on its left, 0.25 + 0.5 = 0.75 m on its right -> pass on the right, a
+        # car width + 0.15 = 0.3461 m from it: 0.25 - 0.3461 = -0.0961 m (inside the 0.12 m
+        # margins). Speed: the bot's 0 m/s plus 0.5 * (0.8 - 0.3235 - 0.1) / 1.2 = 0.1569 m/s.
+        assert offset[0] == pytest.approx(0.25 - (0.1961 + 0.15))
+        assert speed[0] == pytest.approx(0.5 * (0.8 - 0.3235 - 0.1) / 1.2)

@@ -122,6 +122,54 @@ class TestHandComputed:
         assert p["object_in_camera"] is False
 
 
+class TestBotObjects:
+    """Bot cars as objects: DeepRacer's insertion order and BOT_CAR_SPEED quirk, by hand."""
+
+    def setup_method(self) -> None:
+        # The scene of TestHandComputed plus two bots: bot 0 at (10.5, 8) heading +y on the
+        # right side, bot 1 at (1, 9.7) heading -x (pi) on the top side, at 0.75 m/s.
+        self.p0, self.p1 = build(
+            ParamsBuilder(square_track(), CAR, 2), [(2.86, 0.3), (10.3, 5.0)],
+            [0.0, math.pi / 2], speed=np.array([0.0, 1.2]),
+            obstacle_position=np.array([[7.0, -0.5]]), obstacle_yaw=np.array([0.0]),
+            bot_position=np.array([[10.5, 8.0], [1.0, 9.7]]),
+            bot_yaw=np.array([math.pi / 2, math.pi]), bot_speed=0.75)
+
+    def test_objects_of_car_0(self) -> None:
+        p = self.p0
+        # Obstacles, then bots, then the other cars: [box, bot 0, bot 1, car 1].
+        assert p["objects_location"] == [[7.0, -0.5], [10.5, 8.0], [1.0, 9.7], [10.3, 5.0]]
+        # Arcs: box 7; bot 0 projects to (10, 8): 10 + 8 = 18; bot 1 to (1, 10):
+        # 10 + 10 + (10 - 1) = 29; car 1 to (10, 5): 15.
+        assert p["objects_distance"] == pytest.approx([7.0, 18.0, 29.0, 15.0])
+        assert p["objects_distance_from_center"] == pytest.approx([0.5, 0.5, 0.3, 0.3])
+        # Only bot 1 (y = 9.7, inside the square) lies between the centre and the inner border.
+        assert p["objects_left_of_center"] == [False, False, True, False]
+        # With bots, every object reports BOT_CAR_SPEED, the car's 1.2 m/s included.
+        assert p["objects_speed"] == [0.75, 0.75, 0.75, 0.75]
+        # Radians in (-pi, pi]: pi stays pi.
+        assert p["objects_heading"] == pytest.approx([0.0, math.pi / 2, math.pi, math.pi / 2])
+        # Sorted arcs: box 7 (0), car 1 15 (3), bot 0 18 (1), bot 1 29 (2); bisect_right(3.0)
+        # = 0 -> ahead = box (0), behind wraps to the last = bot 1 (2).
+        assert p["closest_objects"] == [2, 0]
+
+    def test_objects_of_car_1(self) -> None:
+        p = self.p1
+        # [box, bot 0, bot 1, car 0]; arcs [7, 18, 29, 2.86]: sorted car 0 (3), box (0),
+        # bot 0 (1), bot 1 (2); bisect_right(15.14) = 2 -> ahead = bot 0 (1), behind = box (0).
+        assert p["objects_location"][3] == [2.86, 0.3]
+        assert p["closest_objects"] == [0, 1]
+        # Bot 0 from the camera at (10.3, 5.145) heading +y: 2.86 m ahead, 0.2 m right.
+        assert p["object_in_camera"] is True
+
+    def test_no_bots_keeps_measured_speeds(self) -> None:
+        p0, _ = build(ParamsBuilder(square_track(), CAR, 2), [(2.86, 0.3), (10.3, 5.0)],
+                      [0.0, math.pi / 2], speed=np.array([0.0, 1.2]),
+                      obstacle_position=np.array([[7.0, -0.5]]), obstacle_yaw=np.array([0.0]),
+                      bot_position=np.zeros((0, 2)), bot_yaw=np.zeros(0), bot_speed=0.75)
+        assert p0["objects_speed"] == [0.0, 1.2]
+
+
 class TestProgressAndIndices:
     """Progress wrap rules, the closing-duplicate index, headings, wheels, empty objects."""
 
