@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from pathlib import Path
@@ -140,7 +141,9 @@ def _cmd_league_plot(args: argparse.Namespace) -> int:
         plot_ratings(rating_series(history, players), path)
         written.append(path)
     if races:
-        players, wins, games = pairwise(races)
+        shown = matrix_players(races, history, players, args.players)
+        races = [{p: place for p, place in race.items() if p in shown} for race in races]
+        players, wins, games = pairwise([race for race in races if len(race) > 1], shown)
         with_games = games > 0
         rate = wins / games.clip(min=1)
         rate[~with_games] = float("nan")
@@ -152,6 +155,32 @@ def _cmd_league_plot(args: argparse.Namespace) -> int:
     for path in written:
         print(path)
     return 0
+
+
+def matrix_players(races: list[dict[str, int]],
+                   history: dict[str, list[tuple[float, float, float, float]]],
+                   players: dict[str, Any], limit: int) -> list[str]:
+    """The rows of the win matrix: the ``limit`` best players by their latest fitted rating
+    (by score when the league has no ratings), plus every scripted anchor, best first."""
+    if limit < 2:
+        raise ValueError(f"--players must be >= 2 (rows of the win matrix), got {limit}")
+    names = sorted({name for race in races for name in race})
+    if history:
+        key = {name: history[name][-1][1] if name in history else -math.inf for name in names}
+    else:
+        score = {name: 0.0 for name in names}
+        for race in races:
+            for name, place in race.items():
+                # Share of the other cars beaten in this race (ties count half).
+                others = [p for other, p in race.items() if other != name]
+                score[name] += sum(1.0 if place < p else 0.5 if place == p else 0.0
+                                   for p in others) / max(len(others), 1)
+        key = score
+    ranked = sorted(names, key=lambda name: (-key[name], name))
+    anchors = {name for name in names
+               if getattr(players.get(name), "kind", None) == "scripted"}
+    keep = set(ranked[:limit]) | anchors
+    return [name for name in ranked if name in keep]
 
 
 def rating_series(history: dict[str, list[tuple[float, float, float, float]]],
@@ -219,4 +248,7 @@ def add_commands(sub: Any) -> None:
     plot.add_argument("--league", default=DEFAULT_LEAGUE)
     plot.add_argument("--context", default=None, help="matches of the win matrix (prefix)")
     plot.add_argument("--out", default="plots", help="output folder")
+    plot.add_argument("--players", type=int, default=16,
+                      help="rows of the win matrix: the N best-rated players plus the scripted "
+                           "anchors (default 16)")
     plot.set_defaults(func=_cmd_league_plot)

@@ -55,3 +55,22 @@ def test_bad_input_is_refused(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match=r"history\['A'\] must be"):
         plot_ratings({"A": [(0, 1000)]}, tmp_path / "r.png")
     assert not list(tmp_path.iterdir())
+
+
+def test_win_matrix_rows_are_the_best_rated_plus_anchors() -> None:
+    from types import SimpleNamespace
+
+    from h2h_racing.league.cli import matrix_players
+
+    races = [{"a": 1, "b": 2}, {"c": 1, "anchor": 2}, {"d": 1, "a": 2}]
+    players = {"anchor": SimpleNamespace(kind="scripted")}
+    history = {"a": [(0.0, 900.0, 0, 0), (1.0, 1100.0, 0, 0)], "b": [(0.0, 1050.0, 0, 0)],
+               "c": [(0.0, 1000.0, 0, 0)], "anchor": [(0.0, 950.0, 0, 0)]}
+    # Latest ratings: a 1100, b 1050, c 1000, anchor 950, d none (ranked last). The 2 best
+    # are a and b; the scripted anchor is always kept, in its rating order.
+    assert matrix_players(races, history, players, 2) == ["a", "b", "anchor"]
+    # Without ratings: share of the field beaten per race, summed: a 1 + 0 = 1, b 0, c 1,
+    # d 1, anchor 0 -> a, c, d (ties by name), then anchor, b.
+    assert matrix_players(races, {}, players, 3) == ["a", "c", "d", "anchor"]
+    with pytest.raises(ValueError, match="--players must be >= 2"):
+        matrix_players(races, history, players, 1)
