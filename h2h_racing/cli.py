@@ -132,7 +132,8 @@ def _cmd_camera(args: argparse.Namespace) -> int:
     from h2h_racing.policies import make_driver
     from h2h_racing.sensors.camera import save_camera_png
 
-    drivers = [make_driver(d.strip()) for d in args.drivers.split(",") if d.strip()]
+    names = [d.strip() for d in args.drivers.split(",") if d.strip()]
+    drivers = [make_driver(d, seed=args.seed + car) for car, d in enumerate(names)]
     if not 0 <= args.car < len(drivers):
         raise ValueError(f"--car must be in [0, {len(drivers) - 1}] (one car per driver), "
                          f"got {args.car}")
@@ -197,7 +198,7 @@ def _evaluate_head_to_head(args: argparse.Namespace) -> int:
               f"got {args.races}", file=sys.stderr)
         return 2
     tracks = list_tracks() if args.track == "all" else args.track.split(",")
-    policy = make_driver(args.policy)
+    policy = make_driver(args.policy, seed=args.seed)
     print(f"{args.policy}: {args.races} two-car races of {args.laps} laps per track and opponent "
           f"(race rules: 5 s penalties), every start point in both seat orders")
     print(f"{'track':<16} {'opponent':<16} {'won':>9} {'overtakes':>10} {'crashes':>8} "
@@ -205,7 +206,8 @@ def _evaluate_head_to_head(args: argparse.Namespace) -> int:
     totals: dict[str, list[int]] = {}
     for opponent in args.against.split(","):
         for track in tracks:
-            result = head_to_head(policy, make_driver(opponent), track, races=args.races,
+            result = head_to_head(policy, make_driver(opponent, seed=args.seed + 1), track,
+                                  races=args.races,
                                   laps=args.laps, seed=args.seed)
             row = [result.wins[0], result.overtakes[0], result.overtakes[1],
                    result.crashes[0], result.crashes[1], result.races]

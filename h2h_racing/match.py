@@ -103,7 +103,8 @@ def run_race(track: str, drivers: Sequence[str | Any], race_type: str = "head_to
 
     if not drivers:
         raise ValueError("give at least one driver, e.g. drivers=['racing_line', 'pure_pursuit']")
-    policies = [make_driver(d) if isinstance(d, str) else d for d in drivers]
+    policies = [make_driver(d, seed=seed + car) if isinstance(d, str) else d
+                for car, d in enumerate(drivers)]
     labels = [d if isinstance(d, str) else getattr(d, "name", type(d).__name__)
               for d in drivers]
     rules = RaceRules.preset(race_type)

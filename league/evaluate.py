@@ -64,7 +64,7 @@ def evaluate(driver: Any, track: str, episodes: int = 20, seed: int = 0,
     from h2h_racing.policies import make_driver
 
     if isinstance(driver, str):
-        driver = make_driver(driver)
+        driver = make_driver(driver, seed=seed)
     rules = RaceRules.preset("time_trial", "training")
     env_config = EnvConfig(track=track, num_cars=1, race_type="time_trial", rules=rules,
                            **config)
@@ -119,7 +119,8 @@ def head_to_head(driver_a: Any, driver_b: Any, track: str, races: int = 20, laps
     """
     from h2h_racing.policies import make_driver
 
-    drivers = [make_driver(d) if isinstance(d, str) else d for d in (driver_a, driver_b)]
+    drivers = [make_driver(d, seed=seed + car) if isinstance(d, str) else d
+               for car, d in enumerate((driver_a, driver_b))]
     rules = RaceRules(laps=laps, time_limit=60.0 * laps)
     env_config = EnvConfig(track=track, num_cars=2, race_type="head_to_head", rules=rules)
     loaded = load_track(track)

@@ -147,7 +147,7 @@ class RacingVecEnv(VecEnv):
         if isinstance(opponent, str):
             from h2h_racing.policies import make_driver
 
-            opponent = make_driver(opponent)
+            opponent = make_driver(opponent, seed=seed)
         self.opponent = opponent
         self.random_starts = random_starts
         self.core.seed(seed)

@@ -377,7 +377,7 @@ DRIVERS: dict[str, Callable[..., Driver]] = {
 """Driver constructors by registry name."""
 
 
-def make_driver(name: str, **kwargs: Any) -> Driver:
+def make_driver(name: str, *, seed: int | None = None, **kwargs: Any) -> Driver:
     """Build a scripted driver by name.
 
     >>> make_driver("pure_pursuit", cruise_speed=2.0).name
@@ -388,6 +388,8 @@ def make_driver(name: str, **kwargs: Any) -> Driver:
             ``"random"``; ``"random"`` needs ``rng=np.random.default_rng(seed)``), a shipped
             trained policy (``policies/trained/<name>/policy.pt``, e.g. ``"ppo_speedway"``), or
             the path of a ``policy.pt`` (see ``h2h_racing.policies.trained``).
+        seed: Seeds the ``random`` driver's generator when no ``rng`` is given (other
+            drivers are deterministic and ignore it).
         **kwargs: Constructor arguments of the driver.
 
     Raises:
@@ -403,6 +405,11 @@ def make_driver(name: str, **kwargs: Any) -> Driver:
     if name not in DRIVERS:
         raise ValueError(f"unknown driver {name!r}; known drivers are "
                          f"{sorted(DRIVERS) + sorted(shipped)} or the path of a policy.pt")
+    if name == "random" and "rng" not in kwargs:
+        if seed is None:
+            raise ValueError("the random driver needs a generator: make_driver('random', "
+                             "seed=N) or make_driver('random', rng=np.random.default_rng(N))")
+        kwargs["rng"] = np.random.default_rng(seed)
     return DRIVERS[name](**kwargs)
 
 

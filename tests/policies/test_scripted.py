@@ -224,3 +224,17 @@ class TestBotAvoidance:
         # margins). Speed: the bot's 0 m/s plus 0.5 * (0.8 - 0.3235 - 0.1) / 1.2 = 0.1569 m/s.
         assert offset[0] == pytest.approx(0.25 - (0.1961 + 0.15))
         assert speed[0] == pytest.approx(0.5 * (0.8 - 0.3235 - 0.1) / 1.2)
+
+
+def test_random_driver_needs_a_seed_or_a_generator() -> None:
+    from h2h_racing.policies import make_driver
+
+    with pytest.raises(ValueError, match="random driver needs a generator"):
+        make_driver("random")
+    core = race_core("oval", num_cars=1, num_envs=3)
+    first = make_driver("random", seed=5)
+    second = make_driver("random", rng=np.random.default_rng(5))
+    first.reset(core)
+    second.reset(core)
+    # seed=5 is shorthand for rng=np.random.default_rng(5): the same draws.
+    assert np.array_equal(first.act(core, 0), second.act(core, 0))
