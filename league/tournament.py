@@ -336,7 +336,11 @@ def run_tournament(config: TournamentConfig, store: LeagueStore, backend: Any | 
             jobs = [job for job in jobs if job is not None]
             total = len(races) + sum(len(j.keys) for j in jobs)
             ran += _run_jobs(jobs, store, backend, progress, len(races), total)
-    races = store.races(context=config.context)
+    # Rated in the order of the match keys, not the order the races finished in: the
+    # sequential Elo and the bootstrap intervals read the order, and workers (local or Ray)
+    # finish jobs in any order, while the keys come from the schedule.
+    races = [m.places for m in sorted(store.matches(context=config.context),
+                                      key=lambda m: m.key)]
     anchor = config.anchor
     if anchor is None and "racing_line" in names:
         anchor = "racing_line"
