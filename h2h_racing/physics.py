@@ -95,16 +95,10 @@ class PhysicsWorld:
             self._bodies.append(body)
         half_l, half_w = 0.5 * obstacle_size[0], 0.5 * obstacle_size[1]
         box = [(-half_l, -half_w), (half_l, -half_w), (half_l, half_w), (-half_l, half_w)]
-        for _ in range(num_obstacles):
+        # Obstacles, then bot cars: kinematic bodies whose poses the core sets every step.
+        for outline in [box] * num_obstacles + [car_box] * num_bots:
             body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
-            shape = pymunk.Poly(body, box)
-            shape.friction = friction
-            shape.elasticity = elasticity
-            space.add(body, shape)
-            self._bodies.append(body)
-        for _ in range(num_bots):
-            body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
-            shape = pymunk.Poly(body, car_box)
+            shape = pymunk.Poly(body, outline)
             shape.friction = friction
             shape.elasticity = elasticity
             space.add(body, shape)

@@ -226,17 +226,9 @@ class ParamsBuilder:
         n = self.num_cars
         position = np.ascontiguousarray(position, dtype=np.float64).reshape(n, 2)
         yaw = np.asarray(yaw, dtype=np.float64).reshape(n)
-        if obstacle_position is None:
-            obstacle_position = np.zeros((0, 2))
-            obstacle_yaw = np.zeros(0)
-        obstacle_position = np.asarray(obstacle_position, dtype=np.float64).reshape(-1, 2)
-        obstacle_yaw = np.asarray(obstacle_yaw, dtype=np.float64).reshape(-1)
+        obstacle_position, obstacle_yaw = _poses(obstacle_position, obstacle_yaw)
         k = len(obstacle_position)
-        if bot_position is None:
-            bot_position = np.zeros((0, 2))
-            bot_yaw = np.zeros(0)
-        bot_position = np.asarray(bot_position, dtype=np.float64).reshape(-1, 2)
-        bot_yaw = np.asarray(bot_yaw, dtype=np.float64).reshape(-1)
+        bot_position, bot_yaw = _poses(bot_position, bot_yaw)
         b = len(bot_position)
         if steps <= self._last_steps:
             self.reset()
@@ -548,3 +540,11 @@ def _in_camera(px, py, yaw, camera_ahead_of_p, half_fov, max_range, ox, oy, oyaw
             if ahead > 0.0 and r <= max_range and abs(math.atan2(across, ahead)) <= half_fov:
                 return True
     return False
+
+
+def _poses(position: Any, yaw: Any) -> tuple[np.ndarray, np.ndarray]:
+    """``(position (K, 2), yaw (K,))`` as float64 arrays; None means no objects (K = 0)."""
+    if position is None:
+        return np.zeros((0, 2)), np.zeros(0)
+    return (np.asarray(position, dtype=np.float64).reshape(-1, 2),
+            np.asarray(yaw, dtype=np.float64).reshape(-1))
