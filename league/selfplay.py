@@ -126,10 +126,24 @@ class LeagueConfig:
     """Rounds after which a snapshot is taken regardless (AlphaStar's forced checkpoint)."""
     payoff_decay: float = 0.99
     """Decay of the payoff table's counts per update (AlphaStar)."""
+    anchor_share: float = 0.0
+    """Share of each learner's env copies raced against the scripted anchors (drawn uniformly),
+    the rest matched by the role's rule. With a flat payoff table PFSP spreads copies over
+    the whole pool, where the anchors are a few of many players."""
+    training_rules: str = "training"
+    """Rules of the learners' episodes (``TrainConfig.rules``): ``"training"`` ends an episode
+    at the first infraction; ``"race"`` gives a time penalty and goes on, as the evaluation
+    races do."""
     seed: int = 0
     """Seeds matchmaking, training and races."""
 
     def __post_init__(self) -> None:
+        if not (isinstance(self.anchor_share, (int, float)) and 0.0 <= self.anchor_share <= 1.0):
+            raise ValueError(f"LeagueConfig.anchor_share must be a number in [0, 1] (share of "
+                             f"env copies), got {self.anchor_share!r}")
+        if self.training_rules not in ("training", "race"):
+            raise ValueError(f"LeagueConfig.training_rules must be 'training' or 'race', got "
+                             f"{self.training_rules!r}")
         if not self.learners or not any(s.role == "main" for s in self.learners):
             raise ValueError("a league needs at least one learner with role 'main'")
         names = [s.name for s in self.learners]
@@ -204,6 +218,7 @@ class LeagueConfig:
         return TrainConfig(track=self.tracks[0], num_cars=2, learners=1, opponent=None,
                            num_envs=self.num_envs, num_steps_per_env=self.num_steps_per_env,
                            init_std=self.init_std, reward=RewardConfig(**self.reward), seed=seed,
+                           rules=self.training_rules,
                            ppo=PPOConfig(learning_rate=self.learning_rate,
                                          entropy_coef=self.entropy_coef))
 
@@ -397,6 +412,19 @@ class League:
             raise KeyError(name)
         return player.checkpoint or name
 
+    def _opponents(self, spec: LearnerSpec, pool: list[Any], mains: list[str],
+                   payoff: Any) -> list[str]:
+        """The opponent of each env copy of ``spec``: ``anchor_share`` of the copies against
+        a uniformly drawn anchor, the rest by the role's matchmaking rule, in random order."""
+        from h2h_racing.league.pfsp import choose_opponents
+
+        cfg = self.config
+        fixed = int(round(cfg.anchor_share * cfg.num_envs))
+        names = [str(name) for name in self.rng.choice(list(cfg.anchors), size=fixed)]
+        names += choose_opponents(self.rng, spec.name, spec.role, pool, mains, payoff,
+                                  cfg.num_envs - fixed)
+        return [names[i] for i in self.rng.permutation(len(names))]
+
     def _pool(self) -> list[Any]:
         from h2h_racing.league.pfsp import PoolEntry
 
@@ -438,7 +466,7 @@ class League:
 
     def round(self, round_index: int) -> None:
         """One round: matchmaking, training, evaluation, snapshots, ratings."""
-        from h2h_racing.league.pfsp import choose_opponents, resets_on_snapshot, should_snapshot
+        from h2h_racing.league.pfsp import resets_on_snapshot, should_snapshot
 
         cfg = self.config
         track = cfg.tracks[round_index % len(cfg.tracks)]
@@ -449,8 +477,7 @@ class League:
         for k, spec in enumerate(cfg.learners):
             if self._learner_meta(spec.name, "trained_round", -1) >= round_index:
                 continue  # trained before a restart
-            names = choose_opponents(self.rng, spec.name, spec.role, pool, mains, payoff,
-                                     cfg.num_envs)
+            names = self._opponents(spec, pool, mains, payoff)
             specs = tuple(self._opponent_spec(name) for name in names)
             reset = bool(self._learner_meta(spec.name, "reset", 0.0))
             jobs.append(TrainJob(learner=spec.name, folder=str(self._latest(spec.name).parent),

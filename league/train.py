@@ -120,8 +120,16 @@ class TrainConfig:
     """Lap attempts per evaluation, from start points spread evenly round the lap."""
     eval_race_seconds: float = 60.0
     """Cap on the length of the recorded evaluation race [simulated s]."""
+    rules: Literal["training", "race"] = "training"
+    """``"training"``: DeepRacer's training rules, an infraction ends the car's episode;
+    ``"race"``: race rules, an infraction costs a time penalty (the car is frozen, the clock
+    runs) and the car goes on, as in the races a policy is judged in. One lap per episode,
+    at most 120 s, either way."""
 
     def __post_init__(self) -> None:
+        if self.rules not in ("training", "race"):
+            raise ValueError(f"TrainConfig.rules must be 'training' or 'race', got "
+                             f"{self.rules!r}")
         if self.observations not in ("state", "camera"):
             raise ValueError(f"TrainConfig.observations must be 'state' or 'camera', got "
                              f"{self.observations!r}")
@@ -151,15 +159,20 @@ class TrainConfig:
                              f"{self.eval_race_seconds!r}")
 
     def env_config(self) -> EnvConfig:
-        """The env the learners race in: DeepRacer's training rules (an infraction ends the
-        car's episode), one lap per episode (``track`` names the first track; a procedural
+        """The env the learners race in: ``rules`` (DeepRacer's training rules by default: an
+        infraction ends the car's episode), one lap per episode (``track`` names the first track; a procedural
         run starts on ``speedway`` and moves to random tracks)."""
         race_type = "time_trial" if self.num_cars == 1 else "head_to_head"
         camera = dataclasses.replace(EnvConfig().camera, width=self.camera_size[0],
                                      height=self.camera_size[1])
         track = "speedway" if self.track == PROCEDURAL else self.track
+        rules = RaceRules.preset(race_type, "training")
+        if self.rules == "race":
+            rules = dataclasses.replace(RaceRules.preset(race_type, "race"), laps=rules.laps,
+                                        time_limit=rules.time_limit, ranking="total_time",
+                                        max_resets_per_lap=None)
         return EnvConfig(track=track, num_cars=self.num_cars, race_type=race_type,
-                         rules=RaceRules.preset(race_type, "training"), reward=self.reward,
+                         rules=rules, reward=self.reward,
                          camera=camera, **self.action_space())
 
     def action_space(self) -> dict[str, Any]:

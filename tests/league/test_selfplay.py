@@ -92,3 +92,39 @@ def test_smoke_league_snapshots_rates_and_resumes(tmp_path):
         assert (tmp_path / "learners" / learner / "latest.pt").is_file()
         assert (tmp_path / "learners" / learner / "runner.pt").is_file()
     league.close()
+
+
+def test_anchor_share_and_training_rules(tmp_path):
+    from h2h_racing.league.pfsp import Payoff
+
+    config = dataclasses.replace(LeagueConfig.from_toml(LEAGUE_DIR / "smoke.toml"),
+                                 anchor_share=1.0, training_rules="race")
+    league = League(config, tmp_path, out=io.StringIO())
+    try:
+        spec = config.learners[0]
+        mains = [s.name for s in config.learners if s.role == "main"]
+        names = league._opponents(spec, league._pool(), mains, Payoff.from_races([]))
+        # anchor_share = 1: every copy races an anchor.
+        assert len(names) == config.num_envs and set(names) <= set(config.anchors)
+    finally:
+        league.close()
+    train_config = config.train_config(seed=0)
+    rules = train_config.env_config().rules
+    # Race rules (penalties, not retirement) with the training episode's lap and time cap.
+    assert rules.mode == "race" and rules.laps == 1
+    assert rules.off_track_penalty > 0
+    with pytest.raises(ValueError, match="anchor_share must be a number in"):
+        dataclasses.replace(config, anchor_share=1.5)
+    with pytest.raises(ValueError, match="training_rules must be"):
+        dataclasses.replace(config, training_rules="fast")
+
+
+def test_training_under_race_rules_runs():
+    from h2h_racing.league.train import TrainConfig, train
+
+    config = TrainConfig(track="oval", num_cars=2, learners=1, opponent="pure_pursuit",
+                         num_envs=4, num_steps_per_env=8, rules="race", eval_every=0)
+    runner = train(config, iterations=1)
+    assert runner.env.core.config.rules.mode == "race"
+    with pytest.raises(ValueError, match="rules must be 'training' or 'race'"):
+        TrainConfig(rules="slow")
