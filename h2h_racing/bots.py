@@ -1,4 +1,4 @@
-"""Scripted bot cars (DeepRacer's HEAD_TO_BOT): open-loop motion along the lanes, pure numpy.
+"""Scripted bot cars (DeepRacer's HEAD_TO_BOT): open-loop lane motion, batched over (E, B).
 
 A bot drives a DeepRacer lane (the mid-line between the centre line and a border) at a
 constant speed ``v`` and never reacts to the cars (``bot_cars_agent_ctrl``). Everything about
