@@ -175,6 +175,11 @@ class RaceCore:
         self._use_track(self._reverse_track if reverse else self.forward_track)
         self.is_reversed = bool(reverse)
 
+    def _alternated(self) -> bool:
+        """Whether the next episode drives reversed under ``alternate_direction`` (odd
+        episodes; every copy counts the same episodes, as they reset together)."""
+        return bool(self.config.alternate_direction and self.episodes[0] % 2 == 1)
+
     def _grid_length(self) -> float:
         """How far the start grid reaches behind its first slot [m]."""
         cfg = self.config
@@ -380,9 +385,7 @@ class RaceCore:
         if seed is not None:
             self.seed(seed)
             self.episodes[:] = 0
-        if reverse is None:
-            reverse = bool(self.config.alternate_direction and self.episodes[0] % 2 == 1)
-        self._set_direction(bool(reverse))
+        self._set_direction(self._alternated() if reverse is None else bool(reverse))
         car = self.config.car
         self.world = PhysicsWorld(
             num_cars=self.num_envs * self.num_cars,
@@ -416,7 +419,7 @@ class RaceCore:
                     "core at once, so copies cannot be reset one by one; reset all of them "
                     "(reset_envs with an all-True mask, or reset()), or use round_robin_starts "
                     "without alternate_direction")
-            self._set_direction(bool(self.episodes[0] % 2 == 1))
+            self._set_direction(self._alternated())
         self._spawn(mask, slots, start)
 
     def _spawn(self, mask: BoolArray, slots: IntArray | None,

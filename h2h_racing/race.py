@@ -150,8 +150,7 @@ def judge_bot_contacts(body_a: IntArray, body_b: IntArray, num_envs: int, num_ca
         if done[env, car]:
             continue
         collided[env, car] = True
-        gap = bot_s[env, bot] - s[env, car]
-        gap -= length * math.floor((gap + 0.5 * length) / length)
+        gap = wrap_arc(bot_s[env, bot] - s[env, car], length)
         if gap >= 0.0:
             # A frozen car that a bot ahead touches (being pushed back onto it) is not judged.
             if racing[env, car]:
