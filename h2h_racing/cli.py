@@ -4,7 +4,9 @@
                     [--race-type head_to_bot [--bots 3] [--bot-speed 0.75]]
                     [--save race.rrd] [--spawn] [--serve [--serve-seconds N]]
     h2h-racing camera [--track speedway] [--car 1] [--steps 20] [--out camera.png]
-    h2h-racing train --out runs/NAME [--track T] [--obs state|camera] [--opponents none|D]
+    h2h-racing train --out runs/NAME [--track T] [--obs state|camera|camera_only] [--init P]
+                     [--teacher P]
+                     [--opponents none|D]
                      [--eval-every 50]
     h2h-racing evaluate --policy runs/NAME/policy.pt [--track T] [--episodes 20]
                         [--against DRIVERS [--races 20] [--laps 3]]
@@ -21,6 +23,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 
 def _scale(text: str) -> float | tuple[float, float]:
@@ -160,7 +163,8 @@ def _cmd_train(args: argparse.Namespace) -> int:
                          learners=None if opponent is None else 1, opponent=opponent,
                          seed=args.seed, reward_function=args.reward_function,
                          model_metadata=args.model_metadata, simtrace_envs=args.simtrace,
-                         eval_every=args.eval_every)
+                         eval_every=args.eval_every, teacher=args.teacher, init=args.init,
+                         rules=args.rules, reward=_reward_weights(args.reward))
     runner = train(config, iterations=args.iterations, out=args.out, minutes=args.minutes)
     out = Path(args.out)
     print(f"trained {runner.current_learning_iteration} iterations -> {out / 'policy.pt'} "
@@ -172,6 +176,30 @@ def _cmd_train(args: argparse.Namespace) -> int:
         path = runner.export_policy_to_onnx(str(out), filename="policy.onnx")
         print(f"ONNX export -> {path or out / 'policy.onnx'}")
     return 0
+
+
+def _reward_weights(text: str | None) -> Any:
+    """``"progress=1,crash=-10"`` -> ``RewardConfig`` (unnamed terms keep their defaults)."""
+    import dataclasses
+
+    from h2h_racing.config import RewardConfig
+
+    if not text:
+        return RewardConfig()
+    names = [f.name for f in dataclasses.fields(RewardConfig)]
+    weights = {}
+    for item in text.split(","):
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or name not in names:
+            raise SystemExit(f"error: --reward takes TERM=WEIGHT,... with TERM one of "
+                             f"{', '.join(names)}; got {item!r}")
+        try:
+            weights[name] = float(value)
+        except ValueError:
+            raise SystemExit(f"error: --reward {name}={value!r}: the weight must be a "
+                             "number") from None
+    return RewardConfig(**weights)
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
@@ -268,7 +296,21 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--track", default="speedway",
                        help="catalogue name, track file, random:<seed>, or 'procedural' (a new "
                             "random track every 10 iterations)")
-    train.add_argument("--obs", default="state", choices=["state", "camera"])
+    train.add_argument("--obs", default="state", choices=["state", "camera", "camera_only"],
+                       help="actor input: the state vector; camera + state vector; or camera + "
+                            "own speed and steering (camera_only, DeepRacer's setting)")
+    train.add_argument("--rules", default="training", choices=["training", "race"],
+                       help="training: an infraction ends the episode (DeepRacer's training); "
+                            "race: a time penalty and the car goes on")
+    train.add_argument("--reward", default=None, metavar="TERM=W,...",
+                       help="built-in reward weights, e.g. progress=1,crash=-10,overtake=3,"
+                            "time=-0.05 (unnamed terms keep RewardConfig's defaults)")
+    train.add_argument("--init", default=None, metavar="POLICY",
+                       help="start from this policy's actor (shipped name or policy.pt): "
+                            "fine-tuning")
+    train.add_argument("--teacher", default=None, metavar="POLICY",
+                       help="distil this state policy (shipped name or policy.pt) into a camera "
+                            "policy (rsl-rl Distillation, the student drives) instead of PPO")
     train.add_argument("--opponents", default="none",
                        help="'none' (alone), a scripted driver name or a policy.pt")
     train.add_argument("--iterations", type=int, default=1000)

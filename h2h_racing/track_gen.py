@@ -519,11 +519,24 @@ def _start_on_straight(centre: FloatArray, window: float) -> FloatArray:
     return np.roll(centre, -int(np.argmin(smoothed)), axis=0)
 
 
+def _width_profile(rng: np.random.Generator, count: int, narrowest: float, widest: float) -> FloatArray:
+    """A smooth periodic width profile over ``count`` vertices of a loop, spanning exactly
+    [``narrowest``, ``widest``] [m]: ``g(u) = sum_k a_k cos(2 pi k u + phi_k)`` for k = 1..K, K in
+    [1, 3], ``a_k`` in [0.3, 1], rescaled linearly so that min g -> narrowest and max g -> widest."""
+    u = np.arange(count) / count
+    harmonics = int(rng.integers(1, 4))
+    amplitudes = rng.uniform(0.3, 1.0, harmonics)
+    phases = rng.uniform(0.0, 2 * np.pi, harmonics)
+    k = np.arange(1, harmonics + 1)
+    g = (amplitudes[:, None] * np.cos(2 * np.pi * k[:, None] * u[None, :] + phases[:, None])).sum(axis=0)
+    return narrowest + (widest - narrowest) * (g - g.min()) / (g.max() - g.min())
+
+
 def random_track(
     rng: np.random.Generator,
     *,
     length_range: tuple[float, float] = (20.0, 45.0),
-    width: float = 1.0,
+    width: float | tuple[float, float] = 1.0,
     min_radius: float | None = None,
     spacing: float = 0.05,
     max_tries: int = 100,
@@ -537,7 +550,8 @@ def random_track(
 
     * its smallest radius of curvature is at least ``min_radius``;
     * parts of the track that are more than ``3 * width`` apart along the loop stay at least
-      ``width + 0.25`` m apart (no overlapping tarmac, room for the walls);
+      ``width + 0.25`` m apart (no overlapping tarmac, room for the walls; the widest ``width``
+      when it varies);
     * neither the centre line nor the borders (``centre +- normal * width / 2``) self-intersect.
 
     Vertex 0 is moved to the straightest part of the loop, where a start line belongs. The result depends
@@ -546,9 +560,13 @@ def random_track(
     Args:
         rng: Source of randomness; it is advanced, never replaced.
         length_range: ``(low, high)`` bounds of the lap length [m], ``0 < low <= high``.
-        width: Total (constant) track width [m], > 0; DeepRacer tracks are 0.76-1.07 m.
+        width: Total track width [m], > 0; DeepRacer tracks are 0.76-1.07 m. A ``(narrowest,
+            widest)`` pair makes the width vary smoothly along the lap between the two (as on
+            the catalogue's ``varying``): a random periodic profile of 1-3 cosine harmonics of
+            the lap, rescaled so that it reaches both bounds; both sides stay equal.
         min_radius: Smallest allowed radius of curvature [m]. Defaults to
-            ``max(0.6, 1.2 * width / 2)``; values below ``width / 2`` are rejected (the inner border would fold).
+            ``max(0.6, 1.2 * widest / 2)``; values below ``widest / 2`` are rejected (the inner
+            border would fold).
         spacing: Distance between centre-line vertices [m], > 0.
         max_tries: Candidate loops to draw before giving up, >= 1.
 
@@ -566,8 +584,13 @@ def random_track(
     low, high = (float(v) for v in length_range)
     if not (0 < low <= high and np.isfinite(high)):
         raise ValueError(f"Expected length_range = (low, high) with 0 < low <= high [m], got {length_range}")
-    if not (np.isfinite(width) and width > 0):
-        raise ValueError(f"Expected width > 0 [m], got {width}")
+    bounds = (width, width) if np.isscalar(width) else tuple(width)  # type: ignore[arg-type]
+    if not (len(bounds) == 2 and all(np.isfinite(b) and b > 0 for b in bounds)
+            and bounds[0] <= bounds[1]):
+        raise ValueError(f"Expected width > 0 [m] or (narrowest, widest) with 0 < narrowest <= "
+                         f"widest [m], got {width}")
+    requested = width
+    narrowest, width = float(bounds[0]), float(bounds[1])
     half_width = 0.5 * width
     if min_radius is None:
         min_radius = max(MIN_RADIUS_FLOOR, RADIUS_TO_HALF_WIDTH * half_width)
@@ -606,10 +629,15 @@ def random_track(
         centre = _start_on_straight(centre, window=1.0)
         digest = hashlib.sha256(np.round(centre, 4).tobytes()).hexdigest()[:8]
         widths = np.full(len(centre), half_width)
+        wide = f"{width:.2f} m wide"
+        if narrowest < width:
+            widths = 0.5 * _width_profile(rng, len(centre), narrowest, width)
+            wide = f"{narrowest:.2f}-{width:.2f} m wide"
+            digest = hashlib.sha256(np.round(centre, 4).tobytes() + np.round(widths, 4).tobytes()).hexdigest()[:8]
         return TrackSpec(
             name=f"random-{digest}",
             description=(
-                f"Random closed track, {closed_length(centre):.1f} m lap, {width:.2f} m wide, "
+                f"Random closed track, {closed_length(centre):.1f} m lap, {wide}, "
                 f"min radius {min_radius_of_curvature(centre):.2f} m."
             ),
             centre=centre,
@@ -618,6 +646,6 @@ def random_track(
         )
     raise RuntimeError(
         f"random_track found no valid track in {max_tries} tries (rejected: {rejections}) for "
-        f"length_range={length_range}, width={width}, min_radius={min_radius}; "
+        f"length_range={length_range}, width={requested}, min_radius={min_radius}; "
         "try a longer length_range, a smaller width or min_radius, or more max_tries"
     )

@@ -289,7 +289,7 @@ def train_round(job: TrainJob) -> dict[str, float]:
     import torch
     from rsl_rl.runners import OnPolicyRunner
 
-    from h2h_racing.league.train import save_policy
+    from h2h_racing.league.train import load_init, save_policy
     from h2h_racing.track_io import load_track
 
     torch.set_num_threads(1)
@@ -312,7 +312,7 @@ def train_round(job: TrainJob) -> dict[str, float]:
         if state.is_file() and not job.reset:
             runner.load(str(state))
         elif job.config.init is not None:
-            _load_init(runner, job.config.init)
+            load_init(runner, job.config.init)
     start = time.perf_counter()
     runner.learn(job.config.iterations_per_round)
     runner.current_learning_iteration += 1  # rsl-rl's learn() reuses the last index (G3)
@@ -330,21 +330,6 @@ def _make_env(config: Any, opponent: PoolOpponent) -> Any:
 
     return RacingVecEnv(config.env_config(), num_envs=config.num_envs, learners=1,
                         opponent=opponent, observations=config.observations, seed=config.seed)
-
-
-def _load_init(runner: Any, init: str) -> None:
-    """Load the actor weights of policy ``init`` (shipped name or path) into ``runner``."""
-    import torch
-
-    from h2h_racing.policies.trained import shipped_policies
-
-    path = shipped_policies().get(init, Path(init))
-    payload = torch.load(path, weights_only=True, map_location="cpu")
-    try:
-        runner.alg.actor.load_state_dict(payload["actor_state_dict"])
-    except RuntimeError as err:
-        raise ValueError(f"init policy {init!r} does not fit the league's actor (hidden sizes "
-                         f"or observations differ): {err}") from None
 
 
 def _atomic(write: Any, path: Path) -> None:

@@ -27,7 +27,7 @@ import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
 from h2h_racing.config import EnvConfig, RaceRules, RewardConfig  # noqa: E402
-from h2h_racing.league.vec_env import RacingVecEnv  # noqa: E402
+from h2h_racing.league.vec_env import OBSERVATIONS, RacingVecEnv  # noqa: E402
 from h2h_racing.track import Track  # noqa: E402
 from h2h_racing.track_gen import random_track  # noqa: E402
 
@@ -69,6 +69,35 @@ class PPOConfig:
 
 
 @dataclass(frozen=True, kw_only=True)
+class DistillConfig:
+    """Distillation hyper-parameters (rsl-rl's ``Distillation`` ``algorithm`` section)."""
+
+    learning_rate: float = 1e-3
+    """Adam learning rate (fixed)."""
+    num_learning_epochs: int = 1
+    """Passes over each rollout."""
+    gradient_length: int = 8
+    """Rollout steps whose losses are summed per gradient step (a divisor of
+    ``num_steps_per_env``, or the last steps of each pass are never learned from)."""
+    max_grad_norm: float = 1.0
+    """Gradient clipping."""
+    student_std: float = 0.1
+    """Standard deviation of the student's driving noise during rollouts (actions in
+    [-1, 1]; not learned): it visits states a little off the teacher's line, so that the
+    student learns to come back."""
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if not isinstance(value, (int, float)) or value <= 0:
+                raise ValueError(f"DistillConfig.{f.name} must be a number > 0, got {value!r}")
+        for name in ("num_learning_epochs", "gradient_length"):
+            if not isinstance(getattr(self, name), int):
+                raise ValueError(f"DistillConfig.{name} must be an int, got "
+                                 f"{getattr(self, name)!r}")
+
+
+@dataclass(frozen=True, kw_only=True)
 class TrainConfig:
     """What to train, on what, against whom."""
 
@@ -77,8 +106,16 @@ class TrainConfig:
     (lap 20-45 m, width 0.76-1.07 m) every ``track_every`` iterations."""
     track_every: int = 10
     """Iterations between track changes with ``track="procedural"``."""
-    observations: Literal["state", "camera"] = "state"
-    """Actor input: the state vector, or the camera plus the state vector."""
+    procedural_varying_share: float = 0.3
+    """Share of procedural tracks whose width varies along the lap (``random_training_track``;
+    ``ppo_procedural`` was trained with 0)."""
+    procedural_min_radius: float = 0.45
+    """Smallest corner radius of procedural tracks [m] (``technical`` has 0.5 m corners),
+    raised to 1.2 x the widest half-width on wider tracks (``ppo_procedural``: 0.6)."""
+    observations: Literal["state", "camera", "camera_only"] = "state"
+    """Actor input: the state vector; the camera plus the state vector; or the camera plus the
+    car's own speed and steering angle (``camera_only``: DeepRacer's setting, no track geometry
+    and no other car's state). The critic always gets the privileged state."""
     num_cars: int = 1
     """Cars per env copy."""
     opponent: str | None = None
@@ -120,6 +157,18 @@ class TrainConfig:
     """Lap attempts per evaluation, from start points spread evenly round the lap."""
     eval_race_seconds: float = 60.0
     """Cap on the length of the recorded evaluation race [simulated s]."""
+    init: str | None = None
+    """A policy (shipped name or ``policy.pt``) whose actor weights training starts from
+    (fine-tuning; its observations and hidden sizes must be this run's); None starts from
+    random weights. The critic always starts fresh."""
+    teacher: str | None = None
+    """A state-observation policy (shipped name or ``policy.pt``) to distil into this run's
+    actor with rsl-rl's ``Distillation`` instead of training it with PPO: the student drives
+    (DAgger: it learns on the states its own driving reaches) and is regressed onto the
+    teacher's actions there. The fast way to a camera policy on a CPU: no critic, one pass per
+    rollout. None trains with PPO."""
+    distill: DistillConfig = field(default_factory=DistillConfig)
+    """Distillation hyper-parameters (used with ``teacher``)."""
     rules: Literal["training", "race"] = "training"
     """``"training"``: DeepRacer's training rules, an infraction ends the car's episode;
     ``"race"``: race rules, an infraction costs a time penalty (the car is frozen, the clock
@@ -130,9 +179,19 @@ class TrainConfig:
         if self.rules not in ("training", "race"):
             raise ValueError(f"TrainConfig.rules must be 'training' or 'race', got "
                              f"{self.rules!r}")
-        if self.observations not in ("state", "camera"):
-            raise ValueError(f"TrainConfig.observations must be 'state' or 'camera', got "
+        if self.observations not in OBSERVATIONS:
+            raise ValueError(f"TrainConfig.observations must be one of {OBSERVATIONS}, got "
                              f"{self.observations!r}")
+        if self.teacher is not None and self.observations == "state":
+            raise ValueError("TrainConfig.teacher distils a state policy into a camera policy: "
+                             "set observations to 'camera_only' or 'camera' (a state student "
+                             "of a state teacher would only copy it)")
+        if not 0.0 <= self.procedural_varying_share <= 1.0:
+            raise ValueError(f"TrainConfig.procedural_varying_share must be in [0, 1], got "
+                             f"{self.procedural_varying_share!r}")
+        if not 0.4 <= self.procedural_min_radius:
+            raise ValueError(f"TrainConfig.procedural_min_radius must be >= 0.4 m (above the "
+                             f"narrowest half-width, 0.38 m), got {self.procedural_min_radius!r}")
         if self.num_envs < 1 or self.num_steps_per_env < 1:
             raise ValueError("TrainConfig.num_envs and num_steps_per_env must be >= 1")
         if not isinstance(self.simtrace_envs, int) or not 0 <= self.simtrace_envs <= min(
@@ -183,25 +242,58 @@ class TrainConfig:
 
         return load_action_space(self.model_metadata)
 
-    def rsl_rl_dict(self) -> dict[str, Any]:
-        """Return a fresh rsl-rl ``OnPolicyRunner`` config (rsl-rl mutates what it is given)."""
-        camera = self.observations == "camera"
-        actor = {"class_name": "CNNModel" if camera else "MLPModel",
-                 "hidden_dims": list(self.hidden_dims), "obs_normalization": True,
-                 "distribution_cfg": {"class_name": "GaussianDistribution",
-                                      "init_std": self.init_std}}
-        critic = {"class_name": actor["class_name"], "hidden_dims": list(self.hidden_dims),
-                  "obs_normalization": True}
+    def actor_groups(self) -> list[str]:
+        """Observation groups the actor reads (see ``h2h_racing.league.vec_env``)."""
+        return {"state": ["policy"], "camera": ["policy", "camera"],
+                "camera_only": ["camera", "motion"]}[self.observations]
+
+    def actor_dict(self) -> dict[str, Any]:
+        """rsl-rl config of the actor (the student when distilling): an MLP on the state, a CNN
+        (then an MLP) with a camera."""
+        camera = self.observations != "state"
+        init_std = self.distill.student_std if self.teacher is not None else self.init_std
+        actor: dict[str, Any] = {
+            "class_name": "CNNModel" if camera else "MLPModel",
+            "hidden_dims": list(self.hidden_dims), "obs_normalization": True,
+            "distribution_cfg": {"class_name": "GaussianDistribution", "init_std": init_std}}
         if camera:
-            cnn = {"output_channels": [16, 32, 32], "kernel_size": [5, 3, 3], "stride": [2, 2, 2],
-                   "padding": "zeros", "global_pool": "avg"}
-            actor["cnn_cfg"] = copy.deepcopy(cnn)
-            critic["cnn_cfg"] = copy.deepcopy(cnn)
+            # Three stride-2 convolutions, then flattened (no global pooling: where the lines
+            # and cars are in the image is what steers): 64 x 48 -> 8 x 6 x 16 = 768 features.
+            actor["cnn_cfg"] = {"output_channels": [16, 32, 16], "kernel_size": [5, 3, 3],
+                                "stride": [2, 2, 2], "padding": "zeros"}
+        return actor
+
+    def rsl_rl_dict(self) -> dict[str, Any]:
+        """Return a fresh rsl-rl runner config (rsl-rl mutates what it is given): PPO's for an
+        ``OnPolicyRunner``, or with ``teacher`` Distillation's for a ``DistillationRunner``
+        (this loads the teacher's file for its model config)."""
+        actor = self.actor_dict()
+        if self.teacher is not None:
+            teacher = load_teacher(self)
+            return {
+                "num_steps_per_env": self.num_steps_per_env,
+                "save_interval": 50,
+                "obs_groups": {"student": self.actor_groups(), "teacher": ["policy"]},
+                "algorithm": {"class_name": "Distillation", "loss_type": "mse",
+                              **{k: v for k, v in dataclasses.asdict(self.distill).items()
+                                 if k != "student_std"}},
+                "student": actor,
+                "teacher": copy.deepcopy(teacher["actor_cfg"]),
+            }
+        # The critic reads the privileged state; with the camera and the state vector it also
+        # gets the camera (as first built). A camera-only actor's critic needs no CNN: the
+        # privileged state holds what the value depends on, at a fraction of the update cost.
+        critic: dict[str, Any] = {"class_name": "MLPModel",
+                                  "hidden_dims": list(self.hidden_dims), "obs_normalization": True}
+        critic_groups = ["critic"]
+        if self.observations == "camera":
+            critic = {**critic, "class_name": "CNNModel",
+                      "cnn_cfg": copy.deepcopy(actor["cnn_cfg"])}
+            critic_groups = ["critic", "camera"]
         return {
             "num_steps_per_env": self.num_steps_per_env,
             "save_interval": 50,
-            "obs_groups": {"actor": ["policy", "camera"] if camera else ["policy"],
-                           "critic": ["critic", "camera"] if camera else ["critic"]},
+            "obs_groups": {"actor": self.actor_groups(), "critic": critic_groups},
             "algorithm": {"class_name": "PPO", "schedule": "adaptive",
                           **dataclasses.asdict(self.ppo)},
             "actor": actor,
@@ -220,7 +312,7 @@ class TrainConfig:
 
 def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
           minutes: float | None = None) -> Any:
-    """Train with PPO; return the rsl-rl runner.
+    """Train with PPO (or distil ``config.teacher``); return the rsl-rl runner.
 
     Args:
         config: What to train.
@@ -231,13 +323,22 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
             ``out/simtrace/<car>``; None keeps nothing on disk and skips the evaluations.
         minutes: Stop after the first iteration that ends past this wall-clock budget.
     """
-    from rsl_rl.runners import OnPolicyRunner
+    from rsl_rl.runners import DistillationRunner, OnPolicyRunner
 
     torch.manual_seed(config.seed)
     torch.set_num_threads(config.torch_threads)
     env = config.make_env(simtrace=None if out is None else Path(out) / "simtrace")
     log_dir = None if out is None else str(Path(out))
-    runner = OnPolicyRunner(env, config.rsl_rl_dict(), log_dir=log_dir, device="cpu")
+    if config.teacher is None:
+        runner = OnPolicyRunner(env, config.rsl_rl_dict(), log_dir=log_dir, device="cpu")
+    else:
+        runner = DistillationRunner(env, config.rsl_rl_dict(), log_dir=log_dir, device="cpu")
+        # The teacher is the policy file's actor: same model config, so its weights (and its
+        # observation normaliser's statistics) load strictly.
+        runner.alg.teacher.load_state_dict(load_teacher(config)["actor_state_dict"])
+        runner.alg.teacher_loaded = True
+    if config.init is not None:
+        load_init(runner, config.init)
     start = time.perf_counter()
     done = 0
     procedural = config.track == PROCEDURAL
@@ -252,7 +353,8 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
         step = min(chunk, iterations - done)
         if procedural:
             if done % config.track_every == 0:
-                env.set_track(random_training_track(tracks))
+                env.set_track(random_training_track(
+                    tracks, config.procedural_varying_share, config.procedural_min_radius))
             step = min(step, config.track_every - done % config.track_every)
         if eval_every:
             step = min(step, eval_every - done % eval_every)
@@ -348,11 +450,56 @@ def evaluate_during_training(runner: Any, config: TrainConfig, out: str | Path,
     return scalars
 
 
-def random_training_track(rng: np.random.Generator) -> Track:
-    """A random closed track for training: lap 20-45 m, width drawn in [0.76, 1.07] m (the
-    catalogue's range)."""
-    width = float(rng.uniform(0.76, 1.07))
-    spec = random_track(rng, width=width)
+def load_init(runner: Any, init: str) -> None:
+    """Load the actor weights of policy ``init`` (shipped name or path) into ``runner``'s
+    actor (the student when distilling).
+
+    Raises:
+        FileNotFoundError, ValueError: ``init`` is not a policy, or its actor does not fit.
+    """
+    from h2h_racing.policies.trained import load_policy_payload
+
+    payload = load_policy_payload(init)
+    try:
+        runner.alg.get_policy().load_state_dict(payload["actor_state_dict"])
+    except RuntimeError as err:
+        raise ValueError(f"init policy {init!r} does not fit the actor being trained (hidden "
+                         f"sizes or observations differ): {err}") from None
+
+
+def load_teacher(config: TrainConfig) -> dict[str, Any]:
+    """Load ``config.teacher``'s policy dict and check that it can teach in ``config``'s env: a
+    state-observation policy whose state vector has this env's layout.
+
+    Raises:
+        FileNotFoundError, ValueError: With what is wrong and what to do.
+    """
+    from h2h_racing.policies.trained import load_policy_payload
+
+    payload = load_policy_payload(config.teacher)  # type: ignore[arg-type]
+    if payload["observations"] != "state":
+        raise ValueError(f"teacher {config.teacher!r} drives from {payload['observations']!r} "
+                         "observations; a teacher must be a state-observation policy")
+    env = config.env_config()
+    for key in ("opponent_slots", "obstacle_slots"):
+        if payload["env_config"][key] != getattr(env, key):
+            raise ValueError(f"teacher {config.teacher!r} was trained with {key}="
+                             f"{payload['env_config'][key]}, this run's env has {key}="
+                             f"{getattr(env, key)}: its state vector would not fit")
+    return payload
+
+
+def random_training_track(rng: np.random.Generator, varying_share: float = 0.3,
+                          min_radius: float = 0.45) -> Track:
+    """A random closed track for training: lap 20-45 m, width in the catalogue's range
+    [0.76, 1.07] m: constant (drawn uniformly) or, on a ``varying_share`` of the tracks,
+    varying along the lap between two widths drawn in that range (sorted); corners down to
+    ``min_radius`` [m], or 1.2 x the widest half-width if that is larger (``random_track``)."""
+    width: float | tuple[float, float] = float(rng.uniform(0.76, 1.07))
+    if rng.random() < varying_share:
+        width = (min(width, w := float(rng.uniform(0.76, 1.07))), max(width, w))
+    widest = width if isinstance(width, float) else width[1]
+    spec = random_track(rng, width=width, min_radius=max(min_radius, 0.6 * widest))
     return Track(spec.centre, spec.width_left, spec.width_right, name=spec.name,
                  description=spec.description, source="league.train.random_training_track")
 
@@ -363,13 +510,12 @@ def policy_payload(runner: Any, config: TrainConfig,
     change them), the actor's config and the configs it was trained with. It holds only
     tensors and plain Python values (see ``save_policy``; ``TrainedPolicy.from_payload``
     drives with it directly)."""
-    train_dict = config.rsl_rl_dict()
     return {
         "format": POLICY_FORMAT,
         "actor_state_dict": {key: value.detach().clone()
-                             for key, value in runner.alg.actor.state_dict().items()},
-        "actor_cfg": train_dict["actor"],
-        "obs_groups": train_dict["obs_groups"]["actor"],
+                             for key, value in runner.alg.get_policy().state_dict().items()},
+        "actor_cfg": config.actor_dict(),
+        "obs_groups": config.actor_groups(),
         "observations": config.observations,
         "env_config": _plain(config.env_config().to_dict()),
         "train_config": _plain(dataclasses.asdict(config)),

@@ -20,8 +20,12 @@ Observation groups (a ``TensorDict`` with batch size ``num_envs * learners``):
 - ``critic``: privileged state for an asymmetric critic, (B, F + 4 (N - 1)): the state vector and,
   for every other car in car order, its arc gap (wrapped, / 5 m), lateral offset, forward speed
   (/ 4 m/s) and heading error, whatever its distance;
-- ``camera`` (with ``observations="camera"``): the learner's camera as (B, C, H, W) float32 in
-  [0, 1], ready for rsl-rl's ``CNNModel``.
+- ``camera`` (with ``observations="camera"`` or ``"camera_only"``): the learner's camera as
+  (B, C, H, W) float32 in [0, 1], ready for rsl-rl's ``CNNModel``;
+- ``motion`` (with ``observations="camera_only"``): the learner's own forward speed and steering
+  angle, (B, 2) float32 (state features 0 and 3, ``MOTION_FEATURES``). A camera-only actor
+  reads ``camera`` and ``motion``: no track geometry and no other car's state, as DeepRacer's
+  camera models (which get the image alone) plus the car's odometry.
 
 Training starts: ``random_starts`` (the default) starts each episode of a copy at a random
 point of the lap; ``EnvConfig.round_robin_starts`` instead moves each copy's start
@@ -65,9 +69,13 @@ from h2h_racing.core import RaceCore  # noqa: E402
 from h2h_racing.deepracer.metadata import nearest_discrete  # noqa: E402
 from h2h_racing.race import TIME_EPS  # noqa: E402
 from h2h_racing.sensors.camera import CameraSensor  # noqa: E402
-from h2h_racing.sensors.state import state_observation  # noqa: E402
+from h2h_racing.sensors.state import MOTION_FEATURES, state_observation  # noqa: E402
 from h2h_racing.track import Track  # noqa: E402
 from h2h_racing.track_io import load_track  # noqa: E402
+
+OBSERVATIONS = ("state", "camera", "camera_only")
+"""What the actor can be given: the state vector; the camera and the state vector; the camera
+and the car's own motion (``motion`` group)."""
 
 Opponent = Callable[[RaceCore, int], npt.NDArray[np.floating]]
 """Drives car ``car`` of every copy: ``opponent(core, car) -> (E, 2)`` actions in [-1, 1]."""
@@ -83,7 +91,8 @@ class RacingVecEnv(VecEnv):
             with parameter sharing).
         opponent: Driver of the other cars: a ``h2h_racing.policies`` driver name, an object
             with ``reset(core)`` and ``act(core, car)``, or None when every car is a learner.
-        observations: ``"state"`` or ``"camera"`` (adds the ``camera`` group).
+        observations: ``"state"``, ``"camera"`` (adds the ``camera`` group) or
+            ``"camera_only"`` (adds the ``camera`` and ``motion`` groups); see ``OBSERVATIONS``.
         seed: Seed of the core's random generator.
         device: Torch device of the returned tensors.
         track: A ``Track`` to use instead of loading ``config.track``.
@@ -107,7 +116,7 @@ class RacingVecEnv(VecEnv):
 
     def __init__(self, config: EnvConfig, num_envs: int, learners: int | None = None,
                  opponent: str | Any | None = None,
-                 observations: Literal["state", "camera"] = "state", seed: int = 0,
+                 observations: Literal["state", "camera", "camera_only"] = "state", seed: int = 0,
                  device: str = "cpu", track: Track | None = None,
                  random_starts: bool = True, reward_function: str | None = None,
                  simtrace: str | None = None, simtrace_envs: int = 2) -> None:
@@ -118,8 +127,8 @@ class RacingVecEnv(VecEnv):
         if learners < n and opponent is None:
             raise ValueError(f"{n - learners} car(s) per copy are not learners: give an opponent "
                              "(a driver name such as 'racing_line', or a driver object)")
-        if observations not in ("state", "camera"):
-            raise ValueError(f"observations must be 'state' or 'camera', got {observations!r}")
+        if observations not in OBSERVATIONS:
+            raise ValueError(f"observations must be one of {OBSERVATIONS}, got {observations!r}")
         if config.alternate_direction:
             raise ValueError(
                 "RacingVecEnv cannot honour EnvConfig.alternate_direction: its env copies share "
@@ -143,7 +152,7 @@ class RacingVecEnv(VecEnv):
         self._weights = rewards.weights_of(config.reward)
         self._camera = (CameraSensor(config.camera, self.track, config.car,
                                      (config.obstacle_length, config.obstacle_width))
-                        if observations == "camera" else None)
+                        if observations != "state" else None)
         if isinstance(opponent, str):
             from h2h_racing.policies import make_driver
 
@@ -332,6 +341,8 @@ class RacingVecEnv(VecEnv):
             frames = self._camera.observe(core)[:, :learners]
             frames = frames.reshape(e * learners, *frames.shape[2:]).transpose(0, 3, 1, 2)
             groups["camera"] = self._tensor(frames, torch.float32).div_(255.0)
+        if self.observation_kind == "camera_only":
+            groups["motion"] = self._tensor(policy[:, list(MOTION_FEATURES)], torch.float32)
         return TensorDict(groups, batch_size=[e * learners], device=self.device)
 
     def _privileged(self) -> npt.NDArray[np.float32]:

@@ -34,6 +34,30 @@ def shipped_policies() -> dict[str, Path]:
     return {p.parent.name: p for p in sorted(TRAINED_DIR.glob("*/policy.pt"))}
 
 
+def load_policy_payload(policy: str | Path) -> dict[str, Any]:
+    """Load the dict of a policy file: ``policy`` is a shipped policy's name or a ``policy.pt``
+    path (``torch.load(weights_only=True)``; the format is checked).
+
+    Raises:
+        FileNotFoundError: ``policy`` is neither a shipped name nor a file.
+        ValueError: The file is not an h2h-racing policy file.
+    """
+    os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
+    import torch
+
+    shipped = shipped_policies()
+    path = shipped.get(str(policy), Path(policy))
+    if not path.is_file():
+        raise FileNotFoundError(f"policy {str(policy)!r} is neither a shipped policy "
+                                f"({', '.join(shipped)}) nor a policy.pt file")
+    payload = torch.load(path, weights_only=True, map_location="cpu")
+    if not isinstance(payload, dict) or payload.get("format") != POLICY_FORMAT:
+        found = payload.get("format") if isinstance(payload, dict) else type(payload).__name__
+        raise ValueError(f"{path}: not an h2h-racing policy file (expected format "
+                         f"{POLICY_FORMAT!r}, got {found!r})")
+    return payload
+
+
 class TrainedPolicy:
     """A driver that acts with a trained actor (deterministically: the Gaussian's mean).
 
@@ -91,7 +115,7 @@ class TrainedPolicy:
                 raise ValueError(
                     f"{self.source}: trained with {key}={trained[key]}, but the env has "
                     f"{key}={getattr(cfg, key)}; build the env with {key}={trained[key]}")
-        if self.observations == "camera":
+        if self.observations in ("camera", "camera_only"):
             camera = cfg.camera.to_dict()
             for key in _CAMERA_KEYS:
                 if camera[key] != trained["camera"][key]:
@@ -122,9 +146,13 @@ class TrainedPolicy:
         return model
 
     def _observe(self, core: RaceCore, car: int) -> dict[str, npt.NDArray[np.float32]]:
-        from h2h_racing.sensors.state import state_observation
+        from h2h_racing.sensors.state import MOTION_FEATURES, state_observation
 
-        groups = {"policy": np.ascontiguousarray(state_observation(core)[:, car])}
+        # The groups of h2h_racing.league.vec_env, for one car; the actor reads the ones it
+        # was trained on (payload["obs_groups"]).
+        state = state_observation(core)[:, car]
+        groups = {"policy": np.ascontiguousarray(state),
+                  "motion": np.ascontiguousarray(state[:, list(MOTION_FEATURES)])}
         if self._camera is not None:
             frames = self._camera.observe(core)[:, car]
             groups["camera"] = (frames.transpose(0, 3, 1, 2).astype(np.float32) / 255.0)

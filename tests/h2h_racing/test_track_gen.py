@@ -266,6 +266,25 @@ class TestRandomTrack:
             assert not brute_force_crossings(spec.centre[::8]), seed
             assert not brute_force_crossings(left[::8], right[::8]), seed
 
+    def test_varying_width_spans_its_bounds_smoothly(self):
+        for seed in range(5):
+            spec = random_track(np.random.default_rng(seed), width=(0.76, 1.07))
+            np.testing.assert_array_equal(spec.width_left, spec.width_right)
+            # The profile is rescaled onto [0.76, 1.07] m: half-widths 0.38 and 0.535 m are reached.
+            assert spec.width_left.min() == pytest.approx(0.38)
+            assert spec.width_left.max() == pytest.approx(0.535)
+            # Smooth: at most 3 harmonics of the lap over >= 400 vertices (20 m / 5 cm), so neighbours
+            # differ by a small fraction of the 0.155 m half-width range (a step would be all of it).
+            assert np.abs(np.diff(spec.width_left)).max() < 0.155 / 10
+            left, right = border_polylines(spec.centre, spec.width_left, spec.width_right)
+            assert not brute_force_crossings(left[::8], right[::8]), seed
+            assert "0.76-1.07 m wide" in spec.description
+
+    def test_bad_width_rejected(self):
+        for width in ((1.0, 0.8), (0.0, 1.0), (0.8,), float("nan")):
+            with pytest.raises(ValueError, match="narrowest, widest"):
+                random_track(np.random.default_rng(0), width=width)
+
     def test_respects_custom_bounds(self):
         spec = random_track(np.random.default_rng(0), length_range=(15.0, 16.0), width=0.76, spacing=0.1)
         assert 15.0 - 1e-3 <= spec.length <= 16.0 + 1e-3

@@ -167,6 +167,21 @@ class TestCommands:
         assert "run " in table and "racing_line" in table
 
 
+class TestInit:
+    """TrainConfig.init starts the actor from a policy file (fine-tuning)."""
+
+    def test_actor_starts_with_the_policy_weights(self, trained: tuple[Path, object]) -> None:
+        runner = train(dataclasses.replace(SMALL, init=str(trained[0]), seed=5), iterations=0)
+        saved = torch.load(trained[0], weights_only=True)["actor_state_dict"]
+        actor = runner.alg.get_policy().state_dict()
+        assert all(torch.equal(saved[k], actor[k]) for k in saved)
+
+    def test_actor_of_another_size_is_a_clear_error(self, trained: tuple[Path, object]) -> None:
+        config = dataclasses.replace(SMALL, init=str(trained[0]), hidden_dims=(32, 32))
+        with pytest.raises(ValueError, match="does not fit the actor being trained"):
+            train(config, iterations=0)
+
+
 class TestShippedPolicies:
     """Policies shipped under policies/trained/ load by name and drive."""
 
@@ -200,7 +215,9 @@ class TestProcedural:
         config = dataclasses.replace(SMALL, track="procedural", track_every=2, eval_every=1,
                                      eval_episodes=1, eval_race_seconds=1.0)
         runner = train(config, iterations=2, out=tmp_path)
-        first = random_training_track(np.random.default_rng(config.seed + 1))
+        first = random_training_track(np.random.default_rng(config.seed + 1),
+                                      config.procedural_varying_share,
+                                      config.procedural_min_radius)
         assert runner.env.track.name == first.name
         # Procedural runs are evaluated on the fixed start track.
         assert len(list((tmp_path / "eval").glob("iter_*.rrd"))) == 2
@@ -215,6 +232,25 @@ class TestProcedural:
         env.set_track(load_track("kidney"))
         assert env.core.track.name == "kidney" and all(env.core.steps == 0)
         assert env.get_observations()["policy"].shape == (3, 33)
+
+
+def test_train_cli_rules_and_reward(tmp_path: Path) -> None:
+    """``--rules race --reward ...`` reach the TrainConfig saved in policy.pt."""
+    from h2h_racing.cli import main
+
+    out = tmp_path / "run"
+    assert main(["train", "--track", "oval", "--iterations", "1", "--envs", "4", "--no-onnx",
+                 "--eval-every", "0", "--rules", "race", "--reward", "crash=-10,time=-0.05",
+                 "--out", str(out)]) == 0
+    saved = torch.load(out / "policy.pt", weights_only=True)["train_config"]
+    assert saved["rules"] == "race"
+    # Named terms change, the others keep RewardConfig's defaults (progress 1, off track -5).
+    assert saved["reward"] == {**saved["reward"], "crash": -10.0, "time": -0.05,
+                               "progress": 1.0, "off_track": -5.0}
+    with pytest.raises(SystemExit, match="TERM one of progress, speed"):
+        main(["train", "--reward", "grip=2", "--out", str(tmp_path / "x")])
+    with pytest.raises(SystemExit, match="must be a number"):
+        main(["train", "--reward", "crash=lots", "--out", str(tmp_path / "x")])
 
 
 def test_train_cli_with_deepracer_inputs(tmp_path: Path) -> None:

@@ -1,0 +1,165 @@
+"""Camera-only observations and distilling a state policy into a camera policy."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+from tensordict import TensorDict
+
+import h2h_racing
+from h2h_racing.config import CameraConfig
+from h2h_racing.league.train import DistillConfig, TrainConfig, policy_payload, train
+from h2h_racing.league.vec_env import RacingVecEnv
+from h2h_racing.policies.trained import TrainedPolicy
+from h2h_racing.sensors.state import state_observation
+
+# Small camera images keep the CNN cheap: 32 x 24 -> 4 x 3 x 16 after three stride-2 layers.
+TEACHER_CONFIG = TrainConfig(track="oval", num_envs=8, num_steps_per_env=8, hidden_dims=(16, 16))
+STUDENT_CONFIG = dataclasses.replace(TEACHER_CONFIG, observations="camera_only",
+                                     camera_size=(32, 24))
+
+
+@pytest.fixture(scope="module")
+def teacher(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("teacher")
+    train(TEACHER_CONFIG, iterations=1, out=out)
+    return out / "policy.pt"
+
+
+class TestCameraOnlyObservations:
+    """observations="camera_only": the camera and the car's own speed and steering."""
+
+    def test_motion_group_is_own_speed_and_steering_of_the_state_vector(self) -> None:
+        env = RacingVecEnv(STUDENT_CONFIG.env_config(), num_envs=3, observations="camera_only")
+        for _ in range(6):
+            obs, *_ = env.step(torch.tensor([[0.8, 0.5]] * 3))
+        motion = obs["motion"].numpy()
+        state = state_observation(env.core)[:, 0]
+        # Features 0 (forward speed / max speed) and 3 (steering angle / max steer).
+        assert motion.shape == (3, 2)
+        assert np.array_equal(motion, state[:, [0, 3]])
+        # Six steps of steer +0.8 and throttle: turning left and moving.
+        assert (motion[:, 0] > 0).all() and (motion[:, 1] > 0).all()
+        assert obs["camera"].shape == (3, 1, 24, 32)
+
+    def test_actor_reads_only_camera_and_motion(self) -> None:
+        cfg = STUDENT_CONFIG.rsl_rl_dict()
+        assert cfg["obs_groups"]["actor"] == ["camera", "motion"]
+        assert cfg["actor"]["class_name"] == "CNNModel"
+        # Its critic reads the privileged state only (an MLP: no CNN to update twice).
+        assert cfg["obs_groups"]["critic"] == ["critic"]
+        assert cfg["critic"]["class_name"] == "MLPModel"
+
+    def test_ppo_runs_on_camera_only(self) -> None:
+        runner = train(STUDENT_CONFIG, iterations=1)
+        assert runner.current_learning_iteration == 1
+
+
+@pytest.fixture(scope="module")
+def distilled(teacher: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, object]:
+    out = tmp_path_factory.mktemp("student")
+    config = dataclasses.replace(STUDENT_CONFIG, teacher=str(teacher),
+                                 distill=DistillConfig(gradient_length=4))
+    runner = train(config, iterations=2, out=out)
+    return out / "policy.pt", runner
+
+
+class TestDistillation:
+    """TrainConfig.teacher: rsl-rl's Distillation regresses the student onto the teacher."""
+
+    def test_teacher_is_the_policy_file(self, teacher: Path,
+                                        distilled: tuple[Path, object]) -> None:
+        saved = torch.load(teacher, weights_only=True)["actor_state_dict"]
+        loaded = distilled[1].alg.teacher.state_dict()  # type: ignore[attr-defined]
+        assert saved.keys() == loaded.keys()
+        assert all(torch.equal(saved[k], loaded[k]) for k in saved)
+
+    def test_student_file_is_a_camera_only_policy(self, distilled: tuple[Path, object]) -> None:
+        payload = torch.load(distilled[0], weights_only=True)
+        assert payload["observations"] == "camera_only"
+        assert payload["obs_groups"] == ["camera", "motion"]
+        assert payload["train_config"]["teacher"].endswith("policy.pt")
+        # The student drives with the small fixed noise of DistillConfig.student_std.
+        assert payload["actor_cfg"]["distribution_cfg"]["init_std"] == 0.1
+
+    def test_reloaded_student_acts_like_the_trained_student(
+            self, distilled: tuple[Path, object]) -> None:
+        path, runner = distilled
+        env = h2h_racing.parallel_env(track="oval", num_cars=1, race_type="time_trial",
+                                      camera=CameraConfig(width=32, height=24))
+        env.reset(seed=3)
+        for _ in range(8):
+            env.step({"car_0": np.array([0.2, 0.6], np.float32)})
+        policy = TrainedPolicy(path)
+        policy.reset(env.core)
+        groups = policy._observe(env.core, 0)
+        student = runner.alg.get_policy()  # type: ignore[attr-defined]
+        student.eval()
+        with torch.inference_mode():
+            expected = student(TensorDict({k: torch.from_numpy(v) for k, v in groups.items()},
+                                          batch_size=[1])).numpy()
+        assert np.array_equal(policy.act(env.core, 0), np.clip(expected, -1, 1))
+
+    def test_student_learns_the_teachers_actions(self, teacher: Path) -> None:
+        # A student given the state vector as well ("camera") can copy the teacher exactly, so
+        # its imitation loss must fall: compare its mean squared action error against the
+        # teacher on one fixed batch of observations before and after 8 iterations.
+        config = dataclasses.replace(STUDENT_CONFIG, observations="camera", teacher=str(teacher),
+                                     distill=DistillConfig(gradient_length=4,
+                                                           learning_rate=3e-3))
+        env = RacingVecEnv(config.env_config(), num_envs=32, observations="camera", seed=9)
+        for _ in range(20):
+            obs, *_ = env.step(torch.rand(32, 2) * 2 - 1)
+
+        def error(runner: object) -> float:
+            alg = runner.alg  # type: ignore[attr-defined]
+            alg.eval_mode()
+            with torch.inference_mode():
+                return float(((alg.get_policy()(obs) - alg.teacher(obs)) ** 2).mean())
+
+        torch.manual_seed(0)
+        before = error(train(config, iterations=0))
+        after = error(train(config, iterations=8))
+        assert after < 0.5 * before
+
+
+class TestTeacherChecks:
+    """A teacher that cannot teach is a clear error before any training."""
+
+    def test_state_student_refused(self, teacher: Path) -> None:
+        with pytest.raises(ValueError, match="set observations to 'camera_only'"):
+            TrainConfig(teacher=str(teacher))
+
+    def test_missing_teacher(self, tmp_path: Path) -> None:
+        config = dataclasses.replace(STUDENT_CONFIG, teacher=str(tmp_path / "nope.pt"))
+        with pytest.raises(FileNotFoundError, match="neither a shipped policy"):
+            config.rsl_rl_dict()
+
+    def test_camera_teacher_refused(self, tmp_path: Path) -> None:
+        runner = train(STUDENT_CONFIG, iterations=0)
+        path = tmp_path / "camera.pt"
+        torch.save(policy_payload(runner, STUDENT_CONFIG), path)
+        config = dataclasses.replace(STUDENT_CONFIG, teacher=str(path))
+        with pytest.raises(ValueError, match="must be a state-observation policy"):
+            config.rsl_rl_dict()
+
+    def test_teacher_with_other_slots_refused(self, tmp_path: Path) -> None:
+        runner = train(TEACHER_CONFIG, iterations=0)
+        payload = policy_payload(runner, TEACHER_CONFIG)
+        payload["env_config"]["opponent_slots"] = 3
+        path = tmp_path / "slots.pt"
+        torch.save(payload, path)
+        config = dataclasses.replace(STUDENT_CONFIG, teacher=str(path))
+        with pytest.raises(ValueError, match="opponent_slots=3, this run's env has "
+                                             "opponent_slots=2"):
+            config.rsl_rl_dict()
+
+    def test_bad_distill_values(self) -> None:
+        with pytest.raises(ValueError, match="DistillConfig.gradient_length must be"):
+            DistillConfig(gradient_length=0)
+        with pytest.raises(ValueError, match="DistillConfig.num_learning_epochs must be an int"):
+            DistillConfig(num_learning_epochs=1.5)
