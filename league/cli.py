@@ -95,7 +95,9 @@ def _cmd_league_train(args: argparse.Namespace) -> int:
               f"{len(league.snapshots())} snapshots")
         from h2h_racing.league.ratings import format_standings
 
-        print(format_standings(league.standings()))
+        rows = league.standings()
+        print(format_standings(rows))
+        print(_trends(league.store, rows))
     finally:
         league.close()
     return 0
@@ -117,9 +119,24 @@ def _cmd_league_table(args: argparse.Namespace) -> int:
         players = {p for race in races for p in race}
         anchor = args.anchor if args.anchor in players else None
         rows = standings(races, anchor=anchor, n_boot=args.boot, rng=np.random.default_rng(0))
+        trends = _trends(store, rows)
     print(f"{len(races)} races" + (f", anchor {anchor} = 1000" if anchor else ""))
     print(format_standings(rows))
+    print(trends)
     return 0
+
+
+def _trends(store: Any, rows: Any) -> str:
+    """The snapshot-rating trends of each learner lineage, as text ('' without snapshots)."""
+    from h2h_racing.league.ratings import format_trends, rating_trends
+
+    snapshots = [(p.name, p.parent or p.name, p.training_steps)
+                 for p in store.players("snapshot")]
+    trends = rating_trends(snapshots, {row.player: row.rating for row in rows})
+    if not trends:
+        return ""
+    return ("\nsnapshot ratings over training (rank correlation of rating with training "
+            "steps):\n" + format_trends(trends))
 
 
 def _cmd_league_plot(args: argparse.Namespace) -> int:

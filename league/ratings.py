@@ -1,5 +1,5 @@
 """Ratings from race results: batch Bradley-Terry on the Elo scale, bootstrap intervals,
-sequential Elo, and a standings table.
+sequential Elo, a standings table, and trends of snapshot ratings over training.
 
 A race result is a mapping ``{player: place}``: 1 is first, equal places are ties, and a player
 that did not finish gets a place after every finisher (``math.inf`` works; non-finishers may
@@ -461,4 +461,76 @@ def format_standings(rows: Sequence[Standing]) -> str:
             f"{place:>3}  {row.player:<{width}} {number(row.rating):>7} {number(row.low):>7} "
             f"{number(row.high):>7} {number(row.elo):>7} {row.races:>5} {row.wins:>5} "
             f"{number(row.score, 3):>6}")
+    return "\n".join(lines)
+
+
+def rank_correlation(x: Sequence[float], y: Sequence[float]) -> float:
+    """Spearman's rank correlation: the Pearson correlation of the ranks of ``x`` and ``y``
+    (tied values share their mean rank). NaN for fewer than 2 points or a constant input."""
+    if len(x) != len(y):
+        raise ValueError(f"rank_correlation needs two sequences of one length, got {len(x)} "
+                         f"and {len(y)}")
+    if len(x) < 2:
+        return math.nan
+
+    def ranks(values: Sequence[float]) -> np.ndarray:
+        values = np.asarray(values, dtype=np.float64)
+        order = np.argsort(values, kind="stable")
+        out = np.empty(len(values))
+        out[order] = np.arange(1, len(values) + 1)
+        for value in np.unique(values):  # ties: the mean of the ranks they span
+            tied = values == value
+            out[tied] = out[tied].mean()
+        return out
+
+    rx, ry = ranks(x), ranks(y)
+    rx, ry = rx - rx.mean(), ry - ry.mean()
+    norm = math.sqrt(float((rx ** 2).sum() * (ry ** 2).sum()))
+    return float((rx * ry).sum() / norm) if norm > 0 else math.nan
+
+
+@dataclass(frozen=True)
+class Trend:
+    """How one learner's snapshots are rated against the training steps they were taken at."""
+
+    lineage: str
+    snapshots: int
+    first: float
+    """Mean rating of the first three snapshots [Elo]."""
+    last: float
+    """Mean rating of the last three snapshots [Elo]."""
+    best: str
+    """The best-rated snapshot."""
+    correlation: float
+    """Spearman rank correlation of rating with training steps (+1: every later snapshot is
+    rated higher)."""
+
+
+def rating_trends(snapshots: Iterable[tuple[str, str, float]],
+                  ratings: Mapping[str, float]) -> list[Trend]:
+    """Trends of snapshot ratings per lineage, from ``(name, lineage, training steps)`` triples
+    (snapshots without a rating are left out), lineages in name order."""
+    lineages: dict[str, list[tuple[float, float, str]]] = {}
+    for name, lineage, steps in snapshots:
+        if name in ratings:
+            lineages.setdefault(lineage, []).append((steps, ratings[name], name))
+    trends = []
+    for lineage, rows in sorted(lineages.items()):
+        rows.sort()
+        values = [rating for _, rating, _ in rows]
+        trends.append(Trend(
+            lineage=lineage, snapshots=len(rows), first=float(np.mean(values[:3])),
+            last=float(np.mean(values[-3:])), best=max(rows, key=lambda r: r[1])[2],
+            correlation=rank_correlation([s for s, _, _ in rows], values)))
+    return trends
+
+
+def format_trends(trends: Sequence[Trend]) -> str:
+    """Format trends as a text table."""
+    lines = [f"{'lineage':<20} {'snapshots':>9} {'first 3':>8} {'last 3':>8} {'rank corr':>9}  best",
+             "-" * 72]
+    for t in trends:
+        corr = "-" if not math.isfinite(t.correlation) else f"{t.correlation:+.2f}"
+        lines.append(f"{t.lineage:<20} {t.snapshots:>9} {t.first:>8.0f} {t.last:>8.0f} "
+                     f"{corr:>9}  {t.best}")
     return "\n".join(lines)

@@ -26,6 +26,8 @@ os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl imports GitPython
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
+from rsl_rl.models import MLPModel  # noqa: E402
+
 from h2h_racing.config import EnvConfig, RaceRules, RewardConfig  # noqa: E402
 from h2h_racing.league.vec_env import OBSERVATIONS, RacingVecEnv  # noqa: E402
 from h2h_racing.track import Track  # noqa: E402
@@ -76,9 +78,12 @@ class DistillConfig:
     """Adam learning rate (fixed)."""
     num_learning_epochs: int = 1
     """Passes over each rollout."""
-    gradient_length: int = 8
+    gradient_length: int = 1
     """Rollout steps whose losses are summed per gradient step (a divisor of
-    ``num_steps_per_env``, or the last steps of each pass are never learned from)."""
+    ``num_steps_per_env``, or the last steps of each pass are never learned from). Summing
+    only matters for recurrent students (backpropagation through time); for these
+    feed-forward ones 1 gives a gradient step per rollout step (a batch of ``num_envs``
+    samples) for the same compute."""
     max_grad_norm: float = 1.0
     """Gradient clipping."""
     student_std: float = 0.1
@@ -278,7 +283,8 @@ class TrainConfig:
                               **{k: v for k, v in dataclasses.asdict(self.distill).items()
                                  if k != "student_std"}},
                 "student": actor,
-                "teacher": copy.deepcopy(teacher["actor_cfg"]),
+                "teacher": {**copy.deepcopy(teacher["actor_cfg"]),
+                            "class_name": "h2h_racing.league.train:ClippedTeacher"},
             }
         # The critic reads the privileged state; with the camera and the state vector it also
         # gets the camera (as first built). A camera-only actor's critic needs no CNN: the
@@ -448,6 +454,19 @@ def evaluate_during_training(runner: Any, config: TrainConfig, out: str | Path,
           f"{figures.episodes}, mean lap {lap}, off track {figures.off_tracks}, race position "
           f"{mine['position']}/{config.num_cars}" + (f" -> {save}" if save else ""))
     return scalars
+
+
+class ClippedTeacher(MLPModel):  # type: ignore[misc]
+    """A distillation teacher: the policy file's MLP actor with its actions clipped to [-1, 1].
+
+    The env clips actions to [-1, 1], so PPO's Gaussian means drift past the bounds at no cost
+    (a trained actor's raw steering can read 30 where the env applies 1). Regressing a student
+    onto the raw means would spend its loss on those excursions; the clipped actions are what
+    the teacher drives.
+    """
+
+    def forward(self, *args: Any, **kwargs: Any) -> torch.Tensor:
+        return super().forward(*args, **kwargs).clamp(-1.0, 1.0)
 
 
 def load_init(runner: Any, init: str) -> None:

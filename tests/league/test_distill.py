@@ -78,6 +78,31 @@ class TestDistillation:
         assert saved.keys() == loaded.keys()
         assert all(torch.equal(saved[k], loaded[k]) for k in saved)
 
+    def test_teacher_actions_are_clipped_to_the_action_range(
+            self, distilled: tuple[Path, object]) -> None:
+        from rsl_rl.models import MLPModel
+
+        from h2h_racing.league.train import ClippedTeacher
+
+        runner = distilled[1]
+        obs = runner.env.get_observations()  # type: ignore[attr-defined]
+        cfg = {k: v for k, v in runner.cfg["teacher"].items() if k != "class_name"}
+        # The teacher's weights with the output layer scaled 100x, so that raw means leave
+        # [-1, 1], in the teacher's class and in a plain MLPModel (the raw Gaussian means).
+        state = {k: v.clone() for k, v in runner.alg.teacher.state_dict().items()}
+        last = max(k for k in state if k.startswith("mlp.") and k.endswith(".weight"))
+        state[last] *= 100.0
+        clipped = ClippedTeacher(obs, {"teacher": ["policy"]}, "teacher", 2, **cfg)
+        raw = MLPModel(obs, {"teacher": ["policy"]}, "teacher", 2, **cfg)
+        for model in (clipped, raw):
+            model.load_state_dict(state)
+            model.eval()
+        with torch.inference_mode():
+            actions, means = clipped(obs), raw(obs)
+        assert float(means.abs().max()) > 1.0
+        assert torch.equal(actions, means.clamp(-1.0, 1.0))
+        assert isinstance(runner.alg.teacher, ClippedTeacher)
+
     def test_student_file_is_a_camera_only_policy(self, distilled: tuple[Path, object]) -> None:
         payload = torch.load(distilled[0], weights_only=True)
         assert payload["observations"] == "camera_only"

@@ -234,3 +234,36 @@ class TestStandings:
         assert math.isnan(rows[0].low)
         assert isinstance(rows[0], Standing)
         assert format_standings(rows).splitlines()[2].split()[3] == "-"
+
+
+class TestTrends:
+    """Spearman rank correlation and per-lineage snapshot trends."""
+
+    def test_rank_correlation_hand_cases(self) -> None:
+        from h2h_racing.league.ratings import rank_correlation
+
+        # Ranks of y: 1, 2, 4, 3; d = 0, 0, 1, 1; rho = 1 - 6 * 2 / (4 * (16 - 1)) = 0.8.
+        assert rank_correlation([1, 2, 3, 4], [10, 20, 40, 30]) == pytest.approx(0.8)
+        assert rank_correlation([1, 2, 3], [3, 2, 1]) == pytest.approx(-1.0)
+        # Ties share the mean rank: y ranks 1.5, 1.5, 3; centred x -1, 0, 1 and y -0.5, -0.5, 1;
+        # rho = 1.5 / sqrt(2 * 1.5) = 0.866.
+        assert rank_correlation([1, 2, 3], [5, 5, 6]) == pytest.approx(1.5 / math.sqrt(3.0))
+        assert math.isnan(rank_correlation([1], [2]))
+        assert math.isnan(rank_correlation([1, 2], [7, 7]))
+        with pytest.raises(ValueError, match="one length"):
+            rank_correlation([1, 2], [1])
+
+    def test_rating_trends_per_lineage(self) -> None:
+        from h2h_racing.league.ratings import rating_trends
+
+        snapshots = [("a_v1", "a", 100), ("a_v3", "a", 300), ("a_v2", "a", 200),
+                     ("a_v4", "a", 400), ("b_v1", "b", 100), ("b_v2", "b", 200),
+                     ("c_v1", "c", 50)]
+        ratings = {"a_v1": 900, "a_v2": 950, "a_v3": 1000, "a_v4": 1100, "b_v1": 1000,
+                   "b_v2": 980}  # c_v1 unrated: left out
+        a, b = rating_trends(snapshots, ratings)
+        # Ordered by steps: 900, 950, 1000, 1100: first 3 mean 950, last 3 mean 1016.7.
+        assert (a.lineage, a.snapshots, a.best) == ("a", 4, "a_v4")
+        assert a.first == pytest.approx(950.0) and a.last == pytest.approx(3050 / 3)
+        assert a.correlation == pytest.approx(1.0)
+        assert (b.lineage, b.best) == ("b", "b_v1") and b.correlation == pytest.approx(-1.0)
