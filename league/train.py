@@ -108,12 +108,16 @@ class TrainConfig:
 
     track: str = "speedway"
     """Catalogue name, track file, ``random:<seed>``, or ``"procedural"``: a new random track
-    (lap 20-45 m, width 0.76-1.07 m) every ``track_every`` iterations."""
+    (``random_training_track`` with the ``procedural_*`` settings) every ``track_every``
+    iterations."""
     track_every: int = 10
     """Iterations between track changes with ``track="procedural"``."""
     procedural_varying_share: float = 0.3
     """Share of procedural tracks whose width varies along the lap (``random_training_track``;
     ``ppo_procedural`` was trained with 0)."""
+    procedural_length: tuple[float, float] = (20.0, 45.0)
+    """Lap-length range of procedural tracks [m] (shorter laps of the same shapes have
+    tighter corners)."""
     procedural_min_radius: float = 0.45
     """Smallest corner radius of procedural tracks [m] (``technical`` has 0.5 m corners),
     raised to 1.2 x the widest half-width on wider tracks (``ppo_procedural``: 0.6)."""
@@ -194,6 +198,10 @@ class TrainConfig:
         if not 0.0 <= self.procedural_varying_share <= 1.0:
             raise ValueError(f"TrainConfig.procedural_varying_share must be in [0, 1], got "
                              f"{self.procedural_varying_share!r}")
+        low, high = self.procedural_length
+        if not 5.0 <= low <= high:
+            raise ValueError(f"TrainConfig.procedural_length must be (low, high) laps with "
+                             f"5 <= low <= high [m], got {self.procedural_length!r}")
         if not 0.4 <= self.procedural_min_radius:
             raise ValueError(f"TrainConfig.procedural_min_radius must be >= 0.4 m (above the "
                              f"narrowest half-width, 0.38 m), got {self.procedural_min_radius!r}")
@@ -360,23 +368,33 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
         if procedural:
             if done % config.track_every == 0:
                 env.set_track(random_training_track(
-                    tracks, config.procedural_varying_share, config.procedural_min_radius))
+                    tracks, config.procedural_varying_share, config.procedural_min_radius,
+                    config.procedural_length))
             step = min(step, config.track_every - done % config.track_every)
         if eval_every:
             step = min(step, eval_every - done % eval_every)
         runner.learn(step)
         # rsl-rl's learn() re-runs the last iteration index on the next call (its G3 gotcha).
         runner.current_learning_iteration += 1
+        # Each learn() also opens a new tensorboard event file (and never closes the last):
+        # keep the first writer for the whole run.
+        runner.logger.init_logging_writer = _keep_writer
         done += step
         if eval_every and done % eval_every == 0:
             evaluate_during_training(runner, config, Path(out), done)  # type: ignore[arg-type]
         if minutes is not None and time.perf_counter() - start > 60.0 * minutes:
             break
     env.close()
+    if runner.logger.writer is not None:
+        runner.logger.writer.close()
     if out is not None:
         save_policy(runner, config, Path(out) / "policy.pt",
                     training={"iterations": done, "seconds": time.perf_counter() - start})
     return runner
+
+
+def _keep_writer() -> None:
+    """Stands in for rsl-rl's ``Logger.init_logging_writer`` after the first ``learn()``."""
 
 
 def evaluate_during_training(runner: Any, config: TrainConfig, out: str | Path,
@@ -509,16 +527,19 @@ def load_teacher(config: TrainConfig) -> dict[str, Any]:
 
 
 def random_training_track(rng: np.random.Generator, varying_share: float = 0.3,
-                          min_radius: float = 0.45) -> Track:
-    """A random closed track for training: lap 20-45 m, width in the catalogue's range
-    [0.76, 1.07] m: constant (drawn uniformly) or, on a ``varying_share`` of the tracks,
+                          min_radius: float = 0.45,
+                          length: tuple[float, float] = (20.0, 45.0)) -> Track:
+    """A random closed track for training: lap length drawn in ``length`` [m], width in the
+    catalogue's range [0.76, 1.07] m: constant (drawn uniformly) or, on a ``varying_share`` of
+    the tracks,
     varying along the lap between two widths drawn in that range (sorted); corners down to
     ``min_radius`` [m], or 1.2 x the widest half-width if that is larger (``random_track``)."""
     width: float | tuple[float, float] = float(rng.uniform(0.76, 1.07))
     if rng.random() < varying_share:
         width = (min(width, w := float(rng.uniform(0.76, 1.07))), max(width, w))
     widest = width if isinstance(width, float) else width[1]
-    spec = random_track(rng, width=width, min_radius=max(min_radius, 0.6 * widest))
+    spec = random_track(rng, length_range=length, width=width,
+                        min_radius=max(min_radius, 0.6 * widest))
     return Track(spec.centre, spec.width_left, spec.width_right, name=spec.name,
                  description=spec.description, source="league.train.random_training_track")
 

@@ -156,9 +156,12 @@ class TestCommands:
 
         out = tmp_path / "run"
         assert main(["train", "--track", "oval", "--iterations", "2", "--envs", "8",
-                     "--eval-every", "2", "--out", str(out)]) == 0
+                     "--eval-every", "1", "--out", str(out)]) == 0
         assert (out / "policy.pt").is_file() and (out / "policy.onnx").is_file()
-        assert [p.name for p in (out / "eval").iterdir()] == ["iter_2.rrd"]
+        assert sorted(p.name for p in (out / "eval").iterdir()) == ["iter_1.rrd", "iter_2.rrd"]
+        # One tensorboard event file for the run, though learn() ran once per evaluation
+        # (each call would open a new one).
+        assert len(list(out.glob("events.out.tfevents.*"))) == 1
         capsys.readouterr()
         assert main(["evaluate", "--policy", str(out / "policy.pt"), "--track", "oval",
                      "--episodes", "3"]) == 0
