@@ -211,6 +211,9 @@ class RewardConfig:
     """On a step where the car goes off track (all four wheels off)."""
     crash: float = -5.0
     """On a step where the car is judged at fault in a crash."""
+    contact: float = 0.0
+    """On a step where the car is in a new contact with another car, a bot or an obstacle, at
+    fault or not (DeepRacer's judging pays a car for being run into; see ``rewards``)."""
     overtake: float = 1.0
     """Per car passed on track; the car passed gets the negative."""
     lap: float = 0.0

@@ -56,6 +56,7 @@ The weighted sum of these terms (weights in `RewardConfig`; each weighted term i
 | speed | forward speed while racing [m/s] | 0.0 |
 | off_track | 1 on the step the car goes off track | -5.0 |
 | crash | 1 when judged at fault in a contact (the car behind, hitting an obstacle, or running into a bot from behind) | -5.0 |
+| contact | 1 on the step of a new contact, at fault or not (a cost for being run into as well: the at-fault rule alone pays a car for braking in front of a follower) | 0.0 |
 | overtake | cars passed on track minus times passed | 1.0 |
 | lap | 1 per completed lap | 0.0 |
 | time | 1 per step while racing | 0.0 |
@@ -159,7 +160,8 @@ but not bit-for-bit. Scripted drivers (``h2h_racing.policies``) read the true st
   in contacts; DeepRacer training starts (`round_robin_starts`, `alternate_direction`);
   camera fix: cars 9 to 16 are drawn in their documented shade (`CAR_SHADES[i % 8]`; they were
   drawn with values read past the shade table). Configurations without bots and with at most
-  8 cars behave exactly as in v0.
+  8 cars behave exactly as in v0. Later in v1: the `contact` reward term (weight 0 by
+  default, so rewards are unchanged; `reward_terms` gains the key).
 - v0: initial release (state, camera and lidar observations).
 """
 
@@ -549,7 +551,8 @@ class RacingEnv(ParallelEnv):
                 "collided": b[4], "penalised": b[5],
                 "lap_times": list(lap_times[i]), "time": time,
                 "reward_terms": {"progress": t[0], "speed": t[1], "off_track": t[2],
-                                 "crash": t[3], "overtake": t[4], "lap": t[5], "time": t[6]},
+                                 "crash": t[3], "contact": t[4], "overtake": t[5], "lap": t[6],
+                                 "time": t[7]},
             }
         return infos
 

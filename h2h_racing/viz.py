@@ -62,6 +62,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from h2h_racing import rewards
 from h2h_racing.render import car_colour
 
 if TYPE_CHECKING:
@@ -79,7 +80,7 @@ EVENT_KINDS = ("start", "lap", "overtake", "collision", "off_track", "infraction
 """Kinds of event lines in ``/events`` (the bracketed tag at the start of each line)."""
 METRICS = ("speed", "progress", "reward", "rank", "gap_to_leader")
 """Per-car scalars under ``/metrics/<name>/<agent>``."""
-REWARD_TERMS = ("progress", "speed", "off_track", "crash", "overtake", "lap", "time")
+REWARD_TERMS = rewards.TERMS
 """Names of the reward terms in ``infos[agent]["reward_terms"]``, in logging order."""
 TRACK_COLOURS = {"left_border": (235, 235, 235), "right_border": (235, 235, 235),
                  "centre": (225, 190, 40), "left_lane": (120, 120, 130),

@@ -27,7 +27,7 @@ DOCUMENTED_INFO_KEYS = {
     "overtakes", "overtaken", "defences", "resets", "penalties", "time", "reward_terms",
 }
 IMPLEMENTED_INFO_KEYS = DOCUMENTED_INFO_KEYS - {"gap_to_leader"}
-REWARD_TERMS = {"progress", "speed", "off_track", "crash", "overtake", "lap", "time"}
+REWARD_TERMS = {"progress", "speed", "off_track", "crash", "contact", "overtake", "lap", "time"}
 
 
 # ---------------------------------------------------------------------- helpers

@@ -293,26 +293,41 @@ class TestCrashJudging:
                                                   distance, np.ones((1, 2), bool))
         assert at_fault.tolist() == [[False, True]] and events == [(0, 1, 0, False)]
 
-    def test_rear_end_in_core(self) -> None:
+    @staticmethod
+    def _rear_end() -> tuple[Any, Any]:
         # Two cars on one lane of the circle: slot 1 (0.75 m behind) runs into slot 0.
         core = make_core(num_cars=2, time_limit=60.0)
         core.d[0, :] = -0.25
         core.position[0] = TRACK.point_at(core.s[0], core.d[0])
         core._sync_physics()
         speeds = np.array([[0.5, 2.5]])
-        found = None
-        for k in range(60):
+        for _ in range(60):
             steer = np.full((1, 2), circle_steer(core, 1.0, R + 0.25))
             ev = core.step(steer, speeds)
             if ev.collided.any():
-                found = ev
-                break
-        assert found is not None, "no contact"
+                return core, ev
+        raise AssertionError("no contact")
+
+    def test_rear_end_in_core(self) -> None:
+        core, found = self._rear_end()
         assert found.collided[0].tolist() == [True, True]
         assert found.crashed[0].tolist() == [False, True]
         assert found.penalised[0].tolist() == [False, True]
         assert (0, 1, 0, False) in found.collisions
         assert core.crashes[0].tolist() == [0, 1] and core.collisions[0].tolist() == [1, 1]
+
+    def test_rear_end_rewards_crash_and_contact(self) -> None:
+        from h2h_racing import rewards
+        from h2h_racing.config import RewardConfig
+
+        core, found = self._rear_end()
+        weights = rewards.weights_of(RewardConfig(crash=-5.0, contact=-2.0))
+        terms, _ = rewards.reward_terms(weights, found, core.speed, np.ones((1, 2), bool))
+        crash, contact = rewards.TERMS.index("crash"), rewards.TERMS.index("contact")
+        # The car in front was run into: no crash, but the contact costs it -2 too; the car
+        # behind is at fault: -5 for the crash and -2 for the contact.
+        assert terms[crash, 0].tolist() == [0.0, -5.0]
+        assert terms[contact, 0].tolist() == [-2.0, -2.0]
 
 
 class TestOvertakesAndDefences:
