@@ -155,13 +155,17 @@ class TestCommands:
         from h2h_racing.cli import main
 
         out = tmp_path / "run"
-        assert main(["train", "--track", "oval", "--iterations", "2", "--envs", "8",
+        assert main(["train", "--track", "oval", "--iterations", "3", "--envs", "8",
                      "--eval-every", "1", "--out", str(out)]) == 0
         assert (out / "policy.pt").is_file() and (out / "policy.onnx").is_file()
-        assert sorted(p.name for p in (out / "eval").iterdir()) == ["iter_1.rrd", "iter_2.rrd"]
+        assert sorted(p.name for p in (out / "eval").iterdir()) == [
+            "iter_1.rrd", "iter_2.rrd", "iter_3.rrd"]
         # One tensorboard event file for the run, though learn() ran once per evaluation
         # (each call would open a new one).
         assert len(list(out.glob("events.out.tfevents.*"))) == 1
+        # rsl-rl saves model_0 (save_interval 50) and a checkpoint at the end of each learn()
+        # call (model_0, model_1, model_2): the run keeps model_0 and its latest, model_2.
+        assert sorted(p.name for p in out.glob("model_*.pt")) == ["model_0.pt", "model_2.pt"]
         capsys.readouterr()
         assert main(["evaluate", "--policy", str(out / "policy.pt"), "--track", "oval",
                      "--episodes", "3"]) == 0
