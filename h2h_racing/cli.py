@@ -4,10 +4,9 @@
                     [--race-type head_to_bot [--bots 3] [--bot-speed 0.75]]
                     [--save race.rrd] [--spawn] [--serve [--serve-seconds N]]
     h2h-racing camera [--track speedway] [--car 1] [--steps 20] [--out camera.png]
-    h2h-racing train --out runs/NAME [--track T] [--obs state|camera|camera_only] [--init P]
-                     [--teacher P]
-                     [--opponents none|D]
-                     [--eval-every 50]
+    h2h-racing train --out runs/NAME [--track T] [--obs state|camera|camera_only]
+                     [--opponents none|D] [--rules training|race] [--reward TERM=W,...]
+                     [--init P] [--teacher P] [--eval-every 50]
     h2h-racing evaluate --policy runs/NAME/policy.pt [--track T] [--episodes 20]
                         [--against DRIVERS [--races 20] [--laps 3]]
     h2h-racing tracks list
@@ -23,7 +22,10 @@ import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from h2h_racing.config import RewardConfig
 
 
 def _scale(text: str) -> float | tuple[float, float]:
@@ -178,7 +180,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
     return 0
 
 
-def _reward_weights(text: str | None) -> Any:
+def _reward_weights(text: str | None) -> RewardConfig:
     """``"progress=1,crash=-10"`` -> ``RewardConfig`` (unnamed terms keep their defaults)."""
     import dataclasses
 

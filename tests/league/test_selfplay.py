@@ -55,7 +55,7 @@ def test_pool_opponent_drives_each_copy_with_its_driver():
         PoolOpponent(specs[:3]).reset(core)
 
 
-def test_smoke_league_snapshots_rates_and_resumes(tmp_path):
+def test_smoke_league_snapshots_rates_and_resumes(tmp_path, capsys):
     config = LeagueConfig.from_toml(LEAGUE_DIR / "smoke.toml")
     one_round = dataclasses.replace(config, max_rounds=1)
     out = io.StringIO()
@@ -92,6 +92,16 @@ def test_smoke_league_snapshots_rates_and_resumes(tmp_path):
         assert (tmp_path / "learners" / learner / "latest.pt").is_file()
         assert (tmp_path / "learners" / learner / "runner.pt").is_file()
     league.close()
+
+    from h2h_racing.cli import main
+
+    capsys.readouterr()
+    assert main(["league", "table", "--league", str(tmp_path / "league.sqlite"),
+                 "--boot", "10"]) == 0
+    # The standings end with the trend of each lineage's snapshot ratings: 2 snapshots each.
+    rows = {line.split()[0]: line.split() for line in capsys.readouterr().out.splitlines()[-2:]}
+    assert rows["main"][1] == "2" and rows["main"][-1] in ("main_v1", "main_v2")
+    assert rows["main_exploiter"][1] == "2"
 
 
 def test_anchor_share_and_training_rules(tmp_path):
