@@ -92,6 +92,11 @@ class LeagueConfig:
     """Round cap."""
     iterations_per_round: int = 20
     """PPO iterations of each learner per round."""
+    tracks_per_round: int = 1
+    """Tracks each learner trains on per round: the round's iterations are split into this
+    many near-equal chunks, each on the next track of ``tracks`` from the round's own (1: the
+    whole round on the round's track). More than one keeps a learner from being fitted to the
+    last track it saw; evaluation races stay on the round's track."""
     num_envs: int = 128
     """Env copies per learner."""
     num_steps_per_env: int = 32
@@ -159,6 +164,9 @@ class LeagueConfig:
             raise ValueError("give at least one track")
         if self.eval_recent < 0:
             raise ValueError(f"LeagueConfig.eval_recent must be >= 0, got {self.eval_recent}")
+        if not 1 <= self.tracks_per_round <= min(len(self.tracks), self.iterations_per_round):
+            raise ValueError(f"LeagueConfig.tracks_per_round must be in [1, min(number of "
+                             f"tracks, iterations_per_round)], got {self.tracks_per_round}")
         for name in ("iterations_per_round", "num_envs", "num_steps_per_env", "eval_races",
                      "placement_races", "laps", "snapshot_min_rounds", "max_rounds"):
             if getattr(self, name) < 1:
@@ -236,6 +244,7 @@ class TrainJob:
     config: LeagueConfig
     round: int
     track: str
+    """The round's track (evaluation races; the first training chunk)."""
     opponents: tuple[str, ...]
     """Driver of the opponent car of each env copy (``make_driver`` names or policy paths)."""
     reset: bool
@@ -314,8 +323,16 @@ def train_round(job: TrainJob) -> dict[str, float]:
         elif job.config.init is not None:
             load_init(runner, job.config.init)
     start = time.perf_counter()
-    runner.learn(job.config.iterations_per_round)
-    runner.current_learning_iteration += 1  # rsl-rl's learn() reuses the last index (G3)
+    tracks = job.config.tracks
+    first = tracks.index(job.track)
+    chunks = np.array_split(np.arange(job.config.iterations_per_round),
+                            job.config.tracks_per_round)
+    for k, chunk in enumerate(chunks):
+        track = load_track(tracks[(first + k) % len(tracks)])
+        if runner.env.track.name != track.name:
+            runner.env.set_track(track)
+        runner.learn(len(chunk))
+        runner.current_learning_iteration += 1  # rsl-rl's learn() reuses the last index (G3)
     seconds = time.perf_counter() - start
     folder.mkdir(parents=True, exist_ok=True)
     _atomic(lambda p: runner.save(str(p)), folder / "runner.pt")

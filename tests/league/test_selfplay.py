@@ -138,3 +138,24 @@ def test_training_under_race_rules_runs():
     assert runner.env.core.config.rules.mode == "race"
     with pytest.raises(ValueError, match="rules must be 'training' or 'race'"):
         TrainConfig(rules="slow")
+
+
+def test_tracks_per_round_splits_training_over_the_rotation(tmp_path):
+    from h2h_racing.league import selfplay
+    from h2h_racing.league.selfplay import TrainJob, train_round
+
+    config = dataclasses.replace(LeagueConfig.from_toml(LEAGUE_DIR / "smoke.toml"),
+                                 tracks=("oval", "kidney", "speedway"), iterations_per_round=3,
+                                 tracks_per_round=2)
+    job = TrainJob(learner="solo", folder=str(tmp_path / "solo"), config=config, round=1,
+                   track="speedway", opponents=("pure_pursuit",) * config.num_envs,
+                   reset=False, seed=0)
+    stats = train_round(job)
+    runner = selfplay._RUNNERS.pop("solo")[1]
+    # 3 iterations in 2 chunks (2 + 1): speedway, then the next track of the rotation, which
+    # wraps round to oval; every iteration counted once.
+    assert runner.env.track.name == "oval"
+    assert runner.current_learning_iteration == 3
+    assert stats["steps"] == 3 * config.num_envs * config.num_steps_per_env
+    with pytest.raises(ValueError, match="tracks_per_round must be in"):
+        dataclasses.replace(config, tracks_per_round=4)
