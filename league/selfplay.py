@@ -95,8 +95,9 @@ class LeagueConfig:
     tracks_per_round: int = 1
     """Tracks each learner trains on per round: the round's iterations are split into this
     many near-equal chunks, each on the next track of ``tracks`` from the round's own (1: the
-    whole round on the round's track). More than one keeps a learner from being fitted to the
-    last track it saw; evaluation races stay on the round's track."""
+    whole round on the round's track); evaluation races stay on the round's track. Meant to
+    keep a learner from being fitted to the last track it saw (in run 7 of league/README.md
+    it did not stop the main agent's decline)."""
     num_envs: int = 128
     """Env copies per learner."""
     num_steps_per_env: int = 32
