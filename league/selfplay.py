@@ -309,9 +309,7 @@ def train_round(job: TrainJob) -> dict[str, float]:
     cached = _RUNNERS.get(job.learner)
     opponent = PoolOpponent(job.opponents, seed=job.seed)
     if cached is not None and cached[0] == job.round - 1 and not job.reset:
-        runner = cached[1]
-        if runner.env.track.name != load_track(job.track).name:
-            runner.env.set_track(load_track(job.track))
+        runner = cached[1]  # the training loop below moves it to the round's tracks
         runner.env.set_opponent(opponent)
     else:
         torch.manual_seed(job.seed)

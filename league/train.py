@@ -277,13 +277,14 @@ class TrainConfig:
                                 "stride": [2, 2, 2], "padding": "zeros"}
         return actor
 
-    def rsl_rl_dict(self) -> dict[str, Any]:
+    def rsl_rl_dict(self, teacher: dict[str, Any] | None = None) -> dict[str, Any]:
         """Return a fresh rsl-rl runner config (rsl-rl mutates what it is given): PPO's for an
-        ``OnPolicyRunner``, or with ``teacher`` Distillation's for a ``DistillationRunner``
-        (this loads the teacher's file for its model config)."""
+        ``OnPolicyRunner``, or with ``teacher`` Distillation's for a ``DistillationRunner``,
+        whose teacher model config comes from the teacher's policy dict (``load_teacher``;
+        loaded here unless given)."""
         actor = self.actor_dict()
         if self.teacher is not None:
-            teacher = load_teacher(self)
+            teacher = teacher if teacher is not None else load_teacher(self)
             return {
                 "num_steps_per_env": self.num_steps_per_env,
                 "save_interval": 50,
@@ -347,10 +348,12 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
     if config.teacher is None:
         runner = OnPolicyRunner(env, config.rsl_rl_dict(), log_dir=log_dir, device="cpu")
     else:
-        runner = DistillationRunner(env, config.rsl_rl_dict(), log_dir=log_dir, device="cpu")
+        teacher = load_teacher(config)
+        runner = DistillationRunner(env, config.rsl_rl_dict(teacher), log_dir=log_dir,
+                                    device="cpu")
         # The teacher is the policy file's actor: same model config, so its weights (and its
         # observation normaliser's statistics) load strictly.
-        runner.alg.teacher.load_state_dict(load_teacher(config)["actor_state_dict"])
+        runner.alg.teacher.load_state_dict(teacher["actor_state_dict"])
         runner.alg.teacher_loaded = True
     if config.init is not None:
         load_init(runner, config.init)
@@ -540,9 +543,9 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
                           length: tuple[float, float] = (20.0, 45.0)) -> Track:
     """A random closed track for training: lap length drawn in ``length`` [m], width in the
     catalogue's range [0.76, 1.07] m: constant (drawn uniformly) or, on a ``varying_share`` of
-    the tracks,
-    varying along the lap between two widths drawn in that range (sorted); corners down to
-    ``min_radius`` [m], or 1.2 x the widest half-width if that is larger (``random_track``)."""
+    the tracks, varying along the lap between two widths drawn in that range (sorted); corners
+    down to ``min_radius`` [m], or 1.2 x the widest half-width if that is larger
+    (``random_track``)."""
     width: float | tuple[float, float] = float(rng.uniform(0.76, 1.07))
     # No draw without varying widths: the same seed gives the same tracks as before the option.
     if varying_share > 0 and rng.random() < varying_share:

@@ -48,10 +48,15 @@ def load_policy_payload(policy: str | Path) -> dict[str, Any]:
     if not path.is_file():
         raise FileNotFoundError(f"policy {str(policy)!r} is neither a shipped policy "
                                 f"({', '.join(shipped)}) nor a policy.pt file")
-    payload = torch.load(path, weights_only=True, map_location="cpu")
+    return _checked(torch.load(path, weights_only=True, map_location="cpu"), str(path))
+
+
+def _checked(payload: Any, source: str) -> dict[str, Any]:
+    """``payload`` if it is a policy dict (its ``format`` is ``POLICY_FORMAT``), else a
+    ``ValueError`` naming ``source``."""
     if not isinstance(payload, dict) or payload.get("format") != POLICY_FORMAT:
         found = payload.get("format") if isinstance(payload, dict) else type(payload).__name__
-        raise ValueError(f"{path}: not an h2h-racing policy file (expected format "
+        raise ValueError(f"{source}: not an h2h-racing policy file (expected format "
                          f"{POLICY_FORMAT!r}, got {found!r})")
     return payload
 
@@ -92,12 +97,8 @@ class TrainedPolicy:
         return policy
 
     def _setup(self, payload: Any, name: str, source: str) -> None:
-        if not isinstance(payload, dict) or payload.get("format") != POLICY_FORMAT:
-            found = payload.get("format") if isinstance(payload, dict) else type(payload).__name__
-            raise ValueError(f"{source}: not an h2h-racing policy file (expected format "
-                             f"{POLICY_FORMAT!r}, got {found!r})")
         self.source = source
-        self.payload = payload
+        self.payload = _checked(payload, source)
         self.name = name
         self.observations = payload["observations"]
         self.env_config: dict[str, Any] = payload["env_config"]
