@@ -6,7 +6,7 @@
     h2h-racing camera [--track speedway] [--car 1] [--steps 20] [--out camera.png]
     h2h-racing train --out runs/NAME [--track T] [--obs state|camera|camera_only]
                      [--opponents none|D] [--rules training|race] [--reward TERM=W,...]
-                     [--init P] [--teacher P] [--eval-every 50]
+                     [--init P] [--max-std S] [--teacher P] [--eval-every 50]
     h2h-racing evaluate --policy runs/NAME/policy.pt [--track T] [--episodes 20]
                         [--against DRIVERS [--races 20] [--laps 3]]
     h2h-racing tracks list
@@ -166,7 +166,8 @@ def _cmd_train(args: argparse.Namespace) -> int:
                          seed=args.seed, reward_function=args.reward_function,
                          model_metadata=args.model_metadata, simtrace_envs=args.simtrace,
                          eval_every=args.eval_every, teacher=args.teacher, init=args.init,
-                         rules=args.rules, reward=_reward_weights(args.reward))
+                         rules=args.rules, reward=_reward_weights(args.reward),
+                         max_std=args.max_std)
     runner = train(config, iterations=args.iterations, out=args.out, minutes=args.minutes)
     out = Path(args.out)
     print(f"trained {runner.current_learning_iteration} iterations -> {out / 'policy.pt'} "
@@ -310,6 +311,9 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--init", default=None, metavar="POLICY",
                        help="start from this policy's actor (shipped name or policy.pt): "
                             "fine-tuning")
+    train.add_argument("--max-std", type=float, default=None, metavar="S",
+                       help="upper bound of the policy's standard deviation (actions in "
+                            "[-1, 1]); unbounded by default")
     train.add_argument("--teacher", default=None, metavar="POLICY",
                        help="distil this state policy (shipped name or policy.pt) into a camera "
                             "policy (rsl-rl Distillation, the student drives) instead of PPO")

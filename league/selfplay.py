@@ -112,6 +112,10 @@ class LeagueConfig:
     """PPO entropy bonus."""
     init_std: float = 0.3
     """Policy standard deviation at the start (and after an exploiter reset)."""
+    max_std: float | None = 0.5
+    """Upper bound of the learners' policy standard deviation (``TrainConfig.max_std``); None
+    leaves it unbounded, as in runs 1-7 of league/README.md, whose main agents' std grew from
+    0.3 to 2-4 while they got worse."""
     eval_races: int = 2
     """Seeds per (learner, opponent) evaluation pairing per round, each in both seat orders."""
     eval_recent: int = 6
@@ -147,6 +151,10 @@ class LeagueConfig:
         if not (isinstance(self.anchor_share, (int, float)) and 0.0 <= self.anchor_share <= 1.0):
             raise ValueError(f"LeagueConfig.anchor_share must be a number in [0, 1] (share of "
                              f"env copies), got {self.anchor_share!r}")
+        if self.max_std is not None and not (isinstance(self.max_std, (int, float))
+                                             and self.max_std > 0):
+            raise ValueError(f"LeagueConfig.max_std must be a number > 0 (inf: unbounded), got "
+                             f"{self.max_std!r}")
         if self.training_rules not in ("training", "race"):
             raise ValueError(f"LeagueConfig.training_rules must be 'training' or 'race', got "
                              f"{self.training_rules!r}")
@@ -226,7 +234,8 @@ class LeagueConfig:
 
         return TrainConfig(track=self.tracks[0], num_cars=2, learners=1, opponent=None,
                            num_envs=self.num_envs, num_steps_per_env=self.num_steps_per_env,
-                           init_std=self.init_std, reward=RewardConfig(**self.reward), seed=seed,
+                           init_std=self.init_std, max_std=self.max_std,
+                           reward=RewardConfig(**self.reward), seed=seed,
                            rules=self.training_rules,
                            ppo=PPOConfig(learning_rate=self.learning_rate,
                                          entropy_coef=self.entropy_coef))

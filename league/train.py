@@ -26,7 +26,9 @@ os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl imports GitPython
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
+from rsl_rl.algorithms import PPO  # noqa: E402
 from rsl_rl.models import MLPModel  # noqa: E402
+from rsl_rl.modules.distribution import GaussianDistribution  # noqa: E402
 
 from h2h_racing.config import EnvConfig, RaceRules, RewardConfig  # noqa: E402
 from h2h_racing.league.vec_env import OBSERVATIONS, RacingVecEnv  # noqa: E402
@@ -35,6 +37,8 @@ from h2h_racing.track_gen import random_track  # noqa: E402
 
 POLICY_FORMAT = "h2h-racing-policy/1"
 """Value of the ``format`` key of a policy file."""
+STD_FLOOR = 1e-6
+"""Smallest policy standard deviation (rsl-rl's own floor) when ``TrainConfig.max_std`` is set."""
 PROCEDURAL = "procedural"
 """``TrainConfig.track`` value that trains on a new random track every ``track_every``
 iterations."""
@@ -140,6 +144,13 @@ class TrainConfig:
     """Hidden layer sizes of the actor and critic MLPs."""
     init_std: float = 0.5
     """Initial standard deviation of the Gaussian policy (actions in [-1, 1])."""
+    max_std: float | None = None
+    """Upper bound of the policy's standard deviation, held after every PPO update
+    (``BoundedStdPPO``); None leaves it unbounded, as the shipped policies were trained. The
+    env clips actions to [-1, 1], so once a mean sits past a bound, a wider Gaussian costs the
+    return nothing and the entropy bonus widens it for ever: the league mains of runs 5-7 went
+    from 0.3 to 2-4 while their win rates fell (league/README.md). A larger ``init_std`` (or
+    an ``init`` policy's std) is clamped to it."""
     reward: RewardConfig = field(default_factory=RewardConfig)
     """Reward weights."""
     camera_size: tuple[int, int] = (64, 48)
@@ -208,6 +219,10 @@ class TrainConfig:
                              f"narrowest half-width, 0.38 m), got {self.procedural_min_radius!r}")
         if self.num_envs < 1 or self.num_steps_per_env < 1:
             raise ValueError("TrainConfig.num_envs and num_steps_per_env must be >= 1")
+        if self.max_std is not None and not (isinstance(self.max_std, (int, float))
+                                             and self.max_std > STD_FLOOR):
+            raise ValueError(f"TrainConfig.max_std must be None or a number > {STD_FLOOR}, got "
+                             f"{self.max_std!r}")
         if not isinstance(self.simtrace_envs, int) or not 0 <= self.simtrace_envs <= min(
                 10, self.num_envs):
             raise ValueError(f"TrainConfig.simtrace_envs must be an int in [0, "
@@ -270,6 +285,9 @@ class TrainConfig:
             "class_name": "CNNModel" if camera else "MLPModel",
             "hidden_dims": list(self.hidden_dims), "obs_normalization": True,
             "distribution_cfg": {"class_name": "GaussianDistribution", "init_std": init_std}}
+        if self.max_std is not None and self.teacher is None:
+            actor["distribution_cfg"]["std_range"] = [STD_FLOOR, float(self.max_std)]
+            actor["distribution_cfg"]["init_std"] = min(init_std, float(self.max_std))
         if camera:
             # Three stride-2 convolutions, then flattened (no global pooling: where the lines
             # and cars are in the image is what steers): 64 x 48 -> 8 x 6 x 16 = 768 features.
@@ -310,7 +328,8 @@ class TrainConfig:
             "num_steps_per_env": self.num_steps_per_env,
             "save_interval": 50,
             "obs_groups": {"actor": self.actor_groups(), "critic": critic_groups},
-            "algorithm": {"class_name": "PPO", "schedule": "adaptive",
+            "algorithm": {"class_name": "PPO" if self.max_std is None
+                          else "h2h_racing.league.train:BoundedStdPPO", "schedule": "adaptive",
                           **dataclasses.asdict(self.ppo)},
             "actor": actor,
             "critic": critic,
@@ -499,9 +518,38 @@ class ClippedTeacher(MLPModel):  # type: ignore[misc]
         return super().forward(*args, **kwargs).clamp(-1.0, 1.0)
 
 
+class BoundedStdPPO(PPO):  # type: ignore[misc]
+    """rsl-rl's PPO, with the actor's standard deviation projected into its distribution's
+    ``std_range`` after every update (``TrainConfig.max_std``).
+
+    rsl-rl's ``GaussianDistribution`` clamps the std it samples with, but not the parameter:
+    the gradient is zero past the clamp, so a parameter that steps over the bound stays there
+    (Adam's momentum carries it further) and the std can never shrink again. Projecting the
+    parameter back keeps it on the bound, where the gradient flows.
+    """
+
+    def update(self) -> dict[str, float]:
+        losses = super().update()
+        project_std(self.get_policy())
+        return losses
+
+
+def project_std(actor: Any) -> None:
+    """Clamp ``actor``'s Gaussian std parameter into its distribution's ``std_range``."""
+    dist = getattr(actor, "distribution", None)
+    if not isinstance(dist, GaussianDistribution):
+        return
+    with torch.no_grad():
+        if dist.std_type == "scalar":
+            dist.std_param.clamp_(*dist.std_range)
+        else:
+            dist.log_std_param.clamp_(*dist.log_std_range)
+
+
 def load_init(runner: Any, init: str) -> None:
     """Load the actor weights of policy ``init`` (shipped name or path) into ``runner``'s
-    actor (the student when distilling).
+    actor (the student when distilling), its std projected into this run's range (an init
+    trained without ``max_std`` may have a std of 10).
 
     Raises:
         FileNotFoundError, ValueError: ``init`` is not a policy, or its actor does not fit.
@@ -514,6 +562,7 @@ def load_init(runner: Any, init: str) -> None:
     except RuntimeError as err:
         raise ValueError(f"init policy {init!r} does not fit the actor being trained (hidden "
                          f"sizes or observations differ): {err}") from None
+    project_std(runner.alg.get_policy())
 
 
 def load_teacher(config: TrainConfig) -> dict[str, Any]:

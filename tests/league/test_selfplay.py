@@ -129,6 +129,15 @@ def test_anchor_share_and_training_rules(tmp_path):
         dataclasses.replace(config, training_rules="fast")
 
 
+def test_max_std_reaches_the_learners(tmp_path):
+    config = LeagueConfig.from_toml(LEAGUE_DIR / "bounded.toml")
+    assert config.max_std == 0.5 and config.train_config(seed=0).max_std == 0.5
+    # The run configs recorded before the bound existed keep their unbounded std.
+    assert LeagueConfig.from_toml(LEAGUE_DIR / "anchored.toml").max_std == float("inf")
+    with pytest.raises(ValueError, match="max_std must be a number > 0"):
+        dataclasses.replace(config, max_std=0.0)
+
+
 def test_training_under_race_rules_runs():
     from h2h_racing.league.train import TrainConfig, train
 

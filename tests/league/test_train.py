@@ -189,6 +189,58 @@ class TestInit:
             train(config, iterations=0)
 
 
+class TestMaxStd:
+    """TrainConfig.max_std holds the policy's std at or below the bound after every update."""
+
+    # An entropy bonus of 1 outweighs the small surrogate of a 2-iteration run: it widens the
+    # Gaussian at every update. Adam moves a parameter by about the learning rate (1e-3) per
+    # step, 16 steps an iteration (4 epochs x 4 mini-batches): 0.3 -> about 0.33 unbounded.
+    GREEDY = dataclasses.replace(SMALL, init_std=0.3,
+                                 ppo=dataclasses.replace(SMALL.ppo, entropy_coef=1.0))
+    BOUND = 0.305
+
+    @staticmethod
+    def std(runner: object) -> torch.Tensor:
+        return runner.alg.get_policy().distribution.std_param.detach()  # type: ignore[attr-defined]
+
+    def test_unbounded_std_grows(self) -> None:
+        assert bool((self.std(train(self.GREEDY, iterations=2)) > self.BOUND).all())
+
+    def test_bounded_std_ends_on_the_bound(self) -> None:
+        runner = train(dataclasses.replace(self.GREEDY, max_std=self.BOUND), iterations=2)
+        # Projected, not merely clamped when sampling: the parameter itself is on the bound,
+        # where the gradient still flows (past a clamp it is zero: the std could never shrink).
+        assert torch.allclose(self.std(runner), torch.full((2,), self.BOUND))
+
+    def test_init_std_above_the_bound_starts_on_it(self) -> None:
+        runner = train(dataclasses.replace(SMALL, init_std=0.5, max_std=0.2), iterations=0)
+        assert torch.allclose(self.std(runner), torch.full((2,), 0.2))
+
+    def test_init_policy_std_is_projected(self, trained: tuple[Path, object]) -> None:
+        saved = torch.load(trained[0], weights_only=True)["actor_state_dict"]
+        assert bool((saved["distribution.std_param"] > 0.1).all())
+        runner = train(dataclasses.replace(SMALL, init=str(trained[0]), max_std=0.1),
+                       iterations=0)
+        assert torch.allclose(self.std(runner), torch.full((2,), 0.1))
+        # The rest of the actor is the init policy's.
+        actor = runner.alg.get_policy().state_dict()
+        assert torch.equal(actor["mlp.0.weight"], saved["mlp.0.weight"])
+
+    def test_bad_bound_rejected(self) -> None:
+        for bad in (0.0, -1.0, "0.5"):
+            with pytest.raises(ValueError, match="max_std"):
+                dataclasses.replace(SMALL, max_std=bad)
+
+    def test_cli_flag(self, tmp_path: Path) -> None:
+        from h2h_racing.cli import main
+
+        out = tmp_path / "run"
+        assert main(["train", "--track", "oval", "--iterations", "1", "--envs", "8",
+                     "--eval-every", "0", "--max-std", "0.25", "--out", str(out)]) == 0
+        payload = torch.load(out / "policy.pt", weights_only=True)
+        assert float(payload["actor_state_dict"]["distribution.std_param"].max()) <= 0.25
+
+
 class TestShippedPolicies:
     """Policies shipped under policies/trained/ load by name and drive."""
 
