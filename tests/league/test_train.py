@@ -276,10 +276,26 @@ class TestProcedural:
         runner = train(config, iterations=2, out=tmp_path)
         first = random_training_track(np.random.default_rng(config.seed + 1),
                                       config.procedural_varying_share,
-                                      config.procedural_min_radius)
+                                      config.procedural_min_radius, config.procedural_length,
+                                      config.procedural_reverse_share)
         assert runner.env.track.name == first.name
         # Procedural runs are evaluated on the fixed start track.
         assert len(list((tmp_path / "eval").glob("iter_*.rrd"))) == 2
+
+    def test_reversed_tracks_turn_the_other_way(self) -> None:
+        from h2h_racing.league.train import random_training_track
+
+        ccw = random_training_track(np.random.default_rng(7), reverse_share=0.0)
+        cw = random_training_track(np.random.default_rng(7), reverse_share=1.0)
+        # Same loop (the reversal is drawn after it), driven the other way: the start vertex
+        # stays, the others run backwards, every curvature changes sign, so the tightest
+        # left-hander (largest curvature) becomes the tightest right-hander.
+        assert ccw.is_ccw and not cw.is_ccw and cw.name == f"{ccw.name}-cw"
+        assert np.allclose(cw.centre, np.concatenate([ccw.centre[:1], ccw.centre[:0:-1]]))
+        assert float(cw.curvature_vertex.min()) == pytest.approx(
+            -float(ccw.curvature_vertex.max()), rel=1e-6)
+        with pytest.raises(ValueError, match="procedural_reverse_share must be in"):
+            dataclasses.replace(SMALL, procedural_reverse_share=1.5)
 
     def test_set_track_restarts_every_copy(self) -> None:
         from h2h_racing.league.vec_env import RacingVecEnv
