@@ -519,6 +519,30 @@ def _start_on_straight(centre: FloatArray, window: float) -> FloatArray:
     return np.roll(centre, -int(np.argmin(smoothed)), axis=0)
 
 
+def _add_chicanes(rng: np.random.Generator, centre: FloatArray, count: int) -> FloatArray:
+    """Shift ``count`` stretches of the closed centre line sideways into chicanes.
+
+    Each chicane is the lateral offset ``y(u) = A sin(2 pi u) (1 - cos(2 pi u)) / 2`` for
+    ``u = (s - s0) / l`` in [0, 1] along the left normal: one swerve out and back, depth ``A``
+    in +-[0.1, 0.35] m, length ``l`` in [2, 4] m, start ``s0`` anywhere on the lap. ``y`` and
+    its first two derivatives vanish at both ends (``y ~ 2 pi^3 A u^3`` near u = 0), so the
+    curvature stays continuous; inside, the added curvature is about ``y'' = A / l^2 * 2 pi^2
+    (2 sin 4 pi u - sin 2 pi u)``, up to ``54 A / l^2`` (1.7 /m for 0.2 m over 2.5 m), which
+    the caller's radius check bounds. Overlapping chicanes add up.
+    """
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(centre, axis=0), axis=1))])
+    lap = closed_length(centre)
+    offset = np.zeros(len(centre))
+    for _ in range(count):
+        length = rng.uniform(2.0, 4.0)
+        depth = rng.uniform(0.1, 0.35) * (1.0 if rng.random() < 0.5 else -1.0)
+        u = ((arc - rng.uniform(0.0, lap)) % lap) / length
+        inside = u < 1.0
+        phase = 2 * np.pi * u[inside]
+        offset[inside] += depth * np.sin(phase) * (1.0 - np.cos(phase)) / 2
+    return centre + left_normals(centre) * offset[:, None]
+
+
 def _width_profile(rng: np.random.Generator, count: int, narrowest: float, widest: float) -> FloatArray:
     """A smooth periodic width profile over ``count`` vertices of a loop, spanning exactly
     [``narrowest``, ``widest``] [m]: ``g(u) = sum_k a_k cos(2 pi k u + phi_k)`` for k = 1..K, K in
@@ -540,13 +564,15 @@ def random_track(
     min_radius: float | None = None,
     spacing: float = 0.05,
     max_tries: int = 100,
+    radius_range: tuple[float, float] = (0.55, 1.0),
+    chicanes: tuple[int, int] = (0, 0),
 ) -> TrackSpec:
     """Draw a random closed track: a smoothed, star-shaped loop scaled to a random lap length.
 
     Each try draws K in [8, 14] control points at jittered, sorted angles around a circle with random radii
-    (so the loop runs counter-clockwise and cannot wind twice), interpolates them with
+    in ``radius_range`` (so the loop runs counter-clockwise and cannot wind twice), interpolates them with
     :func:`smooth_closed_curve`, scales the loop to a lap length drawn uniformly from ``length_range``, and
-    accepts it only if
+    adds a number of chicanes drawn in ``chicanes`` (:func:`_add_chicanes`), and accepts it only if
 
     * its smallest radius of curvature is at least ``min_radius``;
     * parts of the track that are more than ``3 * width`` apart along the loop stay at least
@@ -569,6 +595,12 @@ def random_track(
             border would fold).
         spacing: Distance between centre-line vertices [m], > 0.
         max_tries: Candidate loops to draw before giving up, >= 1.
+        radius_range: ``(low, high)`` radii of the control points, relative to the loop's
+            size, ``0 < low <= high``. A smaller ``low`` cuts deeper bays into the loop: tight
+            right-handers between left-handers (S-bends), as on the catalogue's ``technical``.
+        chicanes: ``(fewest, most)`` chicanes per loop, ``0 <= fewest <= most``: left-right (or
+            right-left) wiggles of the centre line 2-4 m long, 0.1-0.35 m deep, anywhere on the
+            lap, as on ``technical``'s start straight. Smooth loops have none.
 
     Returns:
         A :class:`TrackSpec` named ``"random-<8 hex digits of the geometry hash>"``.
@@ -602,6 +634,13 @@ def random_track(
         raise ValueError(f"Expected spacing > 0 [m], got {spacing}")
     if max_tries < 1:
         raise ValueError(f"Expected max_tries >= 1, got {max_tries}")
+    r_low, r_high = (float(v) for v in radius_range)
+    fewest, most = chicanes
+    if not (isinstance(fewest, (int, np.integer)) and isinstance(most, (int, np.integer))
+            and 0 <= fewest <= most):
+        raise ValueError(f"Expected chicanes = (fewest, most) integers with 0 <= fewest <= most, got {chicanes}")
+    if not 0 < r_low <= r_high:
+        raise ValueError(f"Expected radius_range = (low, high) with 0 < low <= high, got {radius_range}")
 
     clearance = width + 0.25
     rejections = {"radius": 0, "clearance": 0, "crossing": 0}
@@ -609,13 +648,16 @@ def random_track(
         num_points = int(rng.integers(8, 15))
         step = 2 * np.pi / num_points
         angles = np.arange(num_points) * step + rng.uniform(-0.3, 0.3, num_points) * step
-        radii = rng.uniform(0.55, 1.0, num_points)
+        radii = rng.uniform(r_low, r_high, num_points)
         unit = np.c_[radii * np.cos(angles), radii * np.sin(angles)]
         target = float(rng.uniform(low, high))
         # The spline is scale-covariant (chord-length knots scale with the points), so scaling the control
         # points by target / L0 scales the whole curve and its lap length exactly.
         coarse = smooth_closed_curve(unit, spacing=closed_length(unit) / 400)
         centre = smooth_closed_curve(unit * (target / closed_length(coarse)), spacing=spacing)
+        # No draw without chicanes: older arguments give the same tracks.
+        if most > 0:
+            centre = _add_chicanes(rng, centre, int(rng.integers(fewest, most + 1)))
         if min_radius_of_curvature(centre) < min_radius:
             rejections["radius"] += 1
             continue

@@ -132,6 +132,9 @@ class TrainConfig:
     1.2 m or more, median 4.9 m over 60 tracks), while ``technical`` turns right at 0.53 m,
     ``hairpin_valley`` at 0.75 m; driven the other way, every tight left-hander is a tight
     right-hander."""
+    procedural_chicanes: tuple[int, int] = (0, 0)
+    """``(fewest, most)`` chicanes added to each procedural track (``random_track``'s
+    ``chicanes``): S-bends as on ``technical``'s start straight, which smooth loops lack."""
     observations: Literal["state", "camera", "camera_only"] = "state"
     """Actor input: the state vector; the camera plus the state vector; or the camera plus the
     car's own speed and steering angle (``camera_only``: DeepRacer's setting, no track geometry
@@ -401,7 +404,8 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
             if done % config.track_every == 0:
                 env.set_track(random_training_track(
                     tracks, config.procedural_varying_share, config.procedural_min_radius,
-                    config.procedural_length, config.procedural_reverse_share))
+                    config.procedural_length, config.procedural_reverse_share,
+                    config.procedural_chicanes))
             step = min(step, config.track_every - done % config.track_every)
         if eval_every:
             step = min(step, eval_every - done % eval_every)
@@ -597,20 +601,21 @@ def load_teacher(config: TrainConfig) -> dict[str, Any]:
 def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
                           min_radius: float = 0.6,
                           length: tuple[float, float] = (20.0, 45.0),
-                          reverse_share: float = 0.0) -> Track:
+                          reverse_share: float = 0.0,
+                          chicanes: tuple[int, int] = (0, 0)) -> Track:
     """A random closed track for training: lap length drawn in ``length`` [m], width in the
     catalogue's range [0.76, 1.07] m: constant (drawn uniformly) or, on a ``varying_share`` of
     the tracks, varying along the lap between two widths drawn in that range (sorted); corners
     down to ``min_radius`` [m], or 1.2 x the widest half-width if that is larger
-    (``random_track``); on a ``reverse_share`` of the tracks driven clockwise (its name then
-    ends in ``-cw``)."""
+    (``random_track``), with a number of chicanes drawn in ``chicanes``; on a
+    ``reverse_share`` of the tracks driven clockwise (its name then ends in ``-cw``)."""
     width: float | tuple[float, float] = float(rng.uniform(0.76, 1.07))
     # No draw without varying widths: the same seed gives the same tracks as before the option.
     if varying_share > 0 and rng.random() < varying_share:
         width = (min(width, w := float(rng.uniform(0.76, 1.07))), max(width, w))
     widest = width if isinstance(width, float) else width[1]
     spec = random_track(rng, length_range=length, width=width,
-                        min_radius=max(min_radius, 0.6 * widest))
+                        min_radius=max(min_radius, 0.6 * widest), chicanes=chicanes)
     track = Track(spec.centre, spec.width_left, spec.width_right, name=spec.name,
                   description=spec.description, source="league.train.random_training_track")
     # As above: no draw without reversing, so that older settings give the same tracks.

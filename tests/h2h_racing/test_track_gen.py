@@ -316,6 +316,48 @@ class TestRandomTrack:
         with pytest.raises(TypeError, match="default_rng"):
             random_track(0)  # type: ignore[arg-type]
 
+    def test_no_chicanes_draws_nothing(self):
+        # Older calls give the same tracks: without chicanes nothing more is drawn.
+        a = random_track(np.random.default_rng(3))
+        b = random_track(np.random.default_rng(3), chicanes=(0, 0))
+        np.testing.assert_array_equal(a.centre, b.centre)
+
+    def test_chicane_is_one_swerve_out_and_back(self):
+        from h2h_racing.track_gen import _add_chicanes
+
+        # A 10 m circle, 1 cm vertices: one chicane moves a 2-4 m stretch sideways by
+        # y = A sin(2 pi u)(1 - cos(2 pi u)) / 2, whose extremes are +-3 sqrt(3) / 8 A = +-0.6495 A
+        # (at u = 1/3 and 2/3) with |A| in [0.1, 0.35]: out one way, then the other.
+        angle = np.linspace(0, 2 * np.pi, 6284, endpoint=False)
+        circle = 10.0 * np.c_[np.cos(angle), np.sin(angle)]
+        for seed in range(5):
+            moved = _add_chicanes(np.random.default_rng(seed), circle, count=1)
+            shift = np.linalg.norm(moved, axis=1) - 10.0
+            stretch = np.count_nonzero(np.abs(shift) > 1e-12) * 0.01  # [m]
+            assert 1.9 <= stretch <= 4.0, (seed, stretch)
+            assert shift.max() == pytest.approx(-shift.min(), rel=1e-3)
+            assert 0.6495 * 0.1 - 1e-3 <= shift.max() <= 0.6495 * 0.35 + 1e-3, seed
+
+    def test_tracks_with_chicanes_are_valid(self):
+        plain_turns, chicane_turns = [], []
+        for seed in range(NUM_RANDOM_SEEDS):
+            spec = random_track(np.random.default_rng(seed), chicanes=(2, 3))
+            assert min_radius_of_curvature(spec.centre) >= 0.6, seed
+            left, right = border_polylines(spec.centre, spec.width_left, spec.width_right)
+            assert not brute_force_crossings(spec.centre[::8]), seed
+            assert not brute_force_crossings(left[::8], right[::8]), seed
+            chicane_turns.append(-curvature(spec.centre).min())
+            plain_turns.append(-curvature(random_track(np.random.default_rng(seed)).centre).min())
+        # The loops run anticlockwise: chicanes are what turns them right, sharply.
+        assert np.median(chicane_turns) > 2 * np.median(plain_turns)
+
+    @pytest.mark.parametrize("kwargs", [{"chicanes": (2, 1)}, {"chicanes": (-1, 0)},
+                                        {"chicanes": (0.5, 1)}, {"radius_range": (0.0, 1.0)},
+                                        {"radius_range": (0.9, 0.5)}])
+    def test_rejects_bad_shape_arguments(self, kwargs):
+        with pytest.raises(ValueError, match="chicanes|radius_range"):
+            random_track(np.random.default_rng(0), **kwargs)
+
 
 class TestCatalogue:
     """The shipped tracks/*.json files are valid, DeepRacer-scale and in sync with tracks/design.py."""
