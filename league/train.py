@@ -61,7 +61,7 @@ class PPOConfig:
     lam: float = 0.95
     """GAE lambda."""
     entropy_coef: float = 0.003
-    """Entropy bonus."""
+    """Entropy bonus (0 turns it off)."""
     desired_kl: float = 0.01
     """Target KL of the adaptive learning-rate schedule."""
     max_grad_norm: float = 1.0
@@ -70,7 +70,11 @@ class PPOConfig:
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
-            if not isinstance(value, (int, float)) or value <= 0:
+            if f.name == "entropy_coef":
+                if not isinstance(value, (int, float)) or value < 0:
+                    raise ValueError(f"PPOConfig.entropy_coef must be a number >= 0, got "
+                                     f"{value!r}")
+            elif not isinstance(value, (int, float)) or value <= 0:
                 raise ValueError(f"PPOConfig.{f.name} must be a number > 0, got {value!r}")
 
 
@@ -158,7 +162,7 @@ class TrainConfig:
     (``BoundedStdPPO``); None leaves it unbounded, as the shipped policies were trained. The
     env clips actions to [-1, 1], so once a mean sits past a bound, a wider Gaussian costs the
     return nothing and the entropy bonus widens it for ever: the league mains of runs 5-7 went
-    from 0.3 to 2-4 while their win rates fell (league/README.md). A larger ``init_std`` (or
+    from 0.3 to 2-4 in 30 minutes (league/README.md). A larger ``init_std`` (or
     an ``init`` policy's std) is clamped to it."""
     reward: RewardConfig = field(default_factory=RewardConfig)
     """Reward weights."""

@@ -136,6 +136,39 @@ def test_max_std_reaches_the_learners(tmp_path):
     assert LeagueConfig.from_toml(LEAGUE_DIR / "anchored.toml").max_std == float("inf")
     with pytest.raises(ValueError, match="max_std must be a number > 0"):
         dataclasses.replace(config, max_std=0.0)
+    # No entropy bonus is allowed (league/low_noise.toml); a negative one is refused here,
+    # before any learner starts.
+    assert LeagueConfig.from_toml(LEAGUE_DIR / "low_noise.toml").train_config(
+        seed=0).ppo.entropy_coef == 0.0
+    with pytest.raises(ValueError, match="entropy_coef must be a number >= 0"):
+        dataclasses.replace(config, entropy_coef=-0.1)
+    with pytest.raises(ValueError, match="learning_rate must be a number > 0"):
+        dataclasses.replace(config, learning_rate=0)
+
+
+def test_anchor_weighting_favours_the_anchor_the_learner_loses_to(tmp_path):
+    from h2h_racing.league.pfsp import Payoff
+
+    config = dataclasses.replace(LeagueConfig.from_toml(LEAGUE_DIR / "smoke.toml"),
+                                 anchors=("racing_line", "pure_pursuit", "blocker"),
+                                 anchor_share=1.0, anchor_weighting="linear", num_envs=300)
+    payoff = Payoff()
+    payoff.update("main", "racing_line", 1.0)
+    payoff.update("main", "blocker", 0.0)
+    league = League(config, tmp_path, out=io.StringIO())
+    try:
+        spec = next(s for s in config.learners if s.role == "main")
+        names = league._opponents(spec, league._pool(), [spec.name], payoff)
+    finally:
+        league.close()
+    # Win rates 1 (racing_line), 1/2 (pure_pursuit, never met), 0 (blocker); linear weights
+    # 1 - x = 0, 1/2, 1 -> probabilities 0, 1/3, 2/3. Blocker copies ~ Binomial(300, 2/3):
+    # mean 200, sd sqrt(300 * 2/3 * 1/3) = 8.2; 170-230 is beyond 3.5 sd either side.
+    assert names.count("racing_line") == 0
+    assert 170 < names.count("blocker") < 230
+    assert names.count("pure_pursuit") == 300 - names.count("blocker")
+    with pytest.raises(ValueError, match="anchor_weighting must be 'uniform' or one of"):
+        dataclasses.replace(config, anchor_weighting="hardest")
 
 
 def test_training_under_race_rules_runs():
