@@ -55,9 +55,20 @@ class _Progress:
               end="", file=sys.stderr, flush=True)
 
 
+def _exit_on_sigterm() -> None:
+    """Turn SIGTERM (``kill PID``) into ``SystemExit``, so that the command's ``finally`` closes
+    its backend: by default Python dies at once and leaves the worker processes running their
+    jobs with no parent. Matches stored so far stay stored either way."""
+    import signal
+
+    signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
+
+
 def _cmd_tournament(args: argparse.Namespace) -> int:
     from h2h_racing.league.store import LeagueStore
     from h2h_racing.league.tournament import TournamentConfig, run_tournament
+
+    _exit_on_sigterm()
 
     config = TournamentConfig(players=args.players, tracks=args.tracks, races=args.races,
                               laps=args.laps, field_races=args.field_races,
@@ -82,6 +93,7 @@ def _cmd_league_train(args: argparse.Namespace) -> int:
 
     from h2h_racing.league.selfplay import League, LeagueConfig
 
+    _exit_on_sigterm()
     config = LeagueConfig.from_toml(args.config)
     if args.minutes is not None:
         config = dataclasses.replace(config, minutes=args.minutes)

@@ -7,6 +7,7 @@ import sqlite3
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -152,6 +153,50 @@ def test_killed_tournament_resumes_without_double_counting(tmp_path):
     with LeagueStore(league) as store:
         keys = [m.key for m in store.matches()]
     assert len(keys) == len(set(keys)) == total
+
+
+def _children(pid: int) -> set[int]:
+    """PIDs whose parent is ``pid`` (Linux /proc)."""
+    found = set()
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except (OSError, IndexError):
+            continue
+        if int(fields[1]) == pid:
+            found.add(int(stat.parent.name))
+    return found
+
+
+def _cmdline(pid: int) -> bytes:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes()
+    except OSError:
+        return b""
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+def test_terminated_tournament_stops_its_workers(tmp_path):
+    league = tmp_path / "l.sqlite"
+    cmd = [sys.executable, "-m", "h2h_racing.cli", "tournament", "--players", ",".join(PLAYERS),
+           "--tracks", "oval,kidney", "--races", "2", "--laps", "1", "--name", "t",
+           "--backend", "local", "--workers", "2", "--league", str(league)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    workers: set[int] = set()
+    deadline = time.time() + 240
+    while time.time() < deadline and proc.poll() is None and len(workers) < 2:
+        # Two spawned workers (the pool's resource tracker is a third child).
+        workers = {pid for pid in _children(proc.pid) if b"multiprocessing.spawn" in _cmdline(pid)}
+        time.sleep(0.05)
+    assert proc.poll() is None and len(workers) == 2, "no workers seen before the end"
+    proc.send_signal(signal.SIGTERM)
+    # SIGTERM exits through the command's finally, which shuts the pool down: by default
+    # Python would die at once and leave both workers running without a parent.
+    assert proc.wait(timeout=120) == 128 + signal.SIGTERM
+    deadline = time.time() + 30
+    while time.time() < deadline and any(Path(f"/proc/{pid}").exists() for pid in workers):
+        time.sleep(0.1)
+    assert not any(Path(f"/proc/{pid}").exists() for pid in workers)
 
 
 @pytest.mark.filterwarnings("ignore::DeprecationWarning")
