@@ -135,10 +135,13 @@ class TrainConfig:
     are star-shaped and run anticlockwise: their right-hand bends are gentle (tightest radius
     1.2 m or more, median 4.9 m over 60 tracks), while ``technical`` turns right at 0.53 m,
     ``hairpin_valley`` at 0.75 m; driven the other way, every tight left-hander is a tight
-    right-hander."""
+    right-hander. 0 (as ``ppo_procedural``): a 1,020-iteration run with 0.5 lapped 75.0 % of
+    the shipped tracks' attempts against 79.3 %, still 0 % on ``technical`` (its card)."""
     procedural_chicanes: tuple[int, int] = (0, 0)
     """``(fewest, most)`` chicanes added to each procedural track (``random_track``'s
-    ``chicanes``): S-bends as on ``technical``'s start straight, which smooth loops lack."""
+    ``chicanes``): S-bends as on ``technical``'s start straight, which smooth loops lack.
+    (0, 0) (as ``ppo_procedural``): (1, 4) with half the tracks reversed and corners down to
+    0.5 m lapped 72.1 %, 0 % on ``technical``."""
     observations: Literal["state", "camera", "camera_only"] = "state"
     """Actor input: the state vector; the camera plus the state vector; or the camera plus the
     car's own speed and steering angle (``camera_only``: DeepRacer's setting, no track geometry
@@ -224,6 +227,10 @@ class TrainConfig:
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ValueError(f"TrainConfig.{name} must be in [0, 1], got "
                                  f"{getattr(self, name)!r}")
+        fewest, most = self.procedural_chicanes
+        if not (isinstance(fewest, int) and isinstance(most, int) and 0 <= fewest <= most):
+            raise ValueError(f"TrainConfig.procedural_chicanes must be (fewest, most) ints with "
+                             f"0 <= fewest <= most, got {self.procedural_chicanes!r}")
         low, high = self.procedural_length
         if not 5.0 <= low <= high:
             raise ValueError(f"TrainConfig.procedural_length must be (low, high) laps with "

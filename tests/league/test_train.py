@@ -296,6 +296,21 @@ class TestProcedural:
             -float(ccw.curvature_vertex.max()), rel=1e-6)
         with pytest.raises(ValueError, match="procedural_reverse_share must be in"):
             dataclasses.replace(SMALL, procedural_reverse_share=1.5)
+        with pytest.raises(ValueError, match="procedural_chicanes must be"):
+            dataclasses.replace(SMALL, procedural_chicanes=(3, 1))
+
+    def test_chicanes_reach_the_training_tracks(self) -> None:
+        from h2h_racing.league.train import random_training_track
+        from h2h_racing.track_gen import curvature
+
+        # The same draws with and without chicanes: the chicane track turns right far
+        # harder (its loop runs anticlockwise; the chicanes swerve both ways).
+        plain = [random_training_track(np.random.default_rng(s)) for s in range(4)]
+        wiggly = [random_training_track(np.random.default_rng(s), chicanes=(3, 3))
+                  for s in range(4)]
+        assert all(w.name != p.name for w, p in zip(wiggly, plain))
+        assert (np.median([-curvature(w.centre).min() for w in wiggly])
+                > 2 * np.median([-curvature(p.centre).min() for p in plain]))
 
     def test_set_track_restarts_every_copy(self) -> None:
         from h2h_racing.league.vec_env import RacingVecEnv
