@@ -4,7 +4,7 @@
                     [--race-type head_to_bot [--bots 3] [--bot-speed 0.75]]
                     [--save race.rrd] [--spawn] [--serve [--serve-seconds N]]
     h2h-racing camera [--track speedway] [--car 1] [--steps 20] [--out camera.png]
-    h2h-racing train --out runs/NAME [--track T] [--obs state|camera|camera_only]
+    h2h-racing train --out runs/NAME [--config TRAIN.toml] [--track T] [--obs state|camera|camera_only]
                      [--opponents none|D] [--rules training|race] [--reward TERM=W,...]
                      [--init P] [--max-std S] [--teacher P] [--eval-every 50]
     h2h-racing evaluate --policy runs/NAME/policy.pt [--track T] [--episodes 20]
@@ -22,10 +22,6 @@ import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:
-    from h2h_racing.config import RewardConfig
 
 
 def _scale(text: str) -> float | tuple[float, float]:
@@ -157,17 +153,9 @@ def _cmd_camera(args: argparse.Namespace) -> int:
 
 
 def _cmd_train(args: argparse.Namespace) -> int:
-    from h2h_racing.league.train import TrainConfig, train
+    from h2h_racing.league.train import train
 
-    opponent = None if args.opponents in (None, "none") else args.opponents
-    config = TrainConfig(track=args.track, observations=args.obs, num_envs=args.envs,
-                         num_cars=1 if opponent is None else 2,
-                         learners=None if opponent is None else 1, opponent=opponent,
-                         seed=args.seed, reward_function=args.reward_function,
-                         model_metadata=args.model_metadata, simtrace_envs=args.simtrace,
-                         eval_every=args.eval_every, teacher=args.teacher, init=args.init,
-                         rules=args.rules, reward=_reward_weights(args.reward),
-                         max_std=args.max_std)
+    config = _train_config(args)
     runner = train(config, iterations=args.iterations, out=args.out, minutes=args.minutes)
     out = Path(args.out)
     print(f"trained {runner.current_learning_iteration} iterations -> {out / 'policy.pt'} "
@@ -181,14 +169,45 @@ def _cmd_train(args: argparse.Namespace) -> int:
     return 0
 
 
-def _reward_weights(text: str | None) -> RewardConfig:
-    """``"progress=1,crash=-10"`` -> ``RewardConfig`` (unnamed terms keep their defaults)."""
+def _train_config(args: argparse.Namespace) -> object:
+    """The ``TrainConfig`` of ``train``: the ``--config`` file's fields (``TrainConfig``'s
+    defaults without one), then every flag given on the command line over them."""
+    from h2h_racing.league.train import TrainConfig
+
+    data: dict[str, object] = {}
+    if args.config is not None:
+        import tomllib
+
+        try:
+            with open(args.config, "rb") as handle:
+                data = tomllib.load(handle)
+        except FileNotFoundError:
+            raise SystemExit(f"error: --config {args.config!r}: no such file") from None
+        except tomllib.TOMLDecodeError as err:
+            raise SystemExit(f"error: --config {args.config!r} is not valid TOML: {err}") from None
+    flags = {"track": "track", "obs": "observations", "rules": "rules", "init": "init",
+             "max_std": "max_std", "teacher": "teacher", "envs": "num_envs", "seed": "seed",
+             "reward_function": "reward_function", "model_metadata": "model_metadata",
+             "simtrace": "simtrace_envs", "eval_every": "eval_every"}
+    data.update({field: getattr(args, flag) for flag, field in flags.items()
+                 if getattr(args, flag) is not None})
+    if args.opponents is not None:
+        opponent = None if args.opponents == "none" else args.opponents
+        data.update(opponent=opponent, num_cars=1 if opponent is None else 2,
+                    learners=None if opponent is None else 1)
+    if args.reward:
+        reward = data.get("reward", {})
+        data["reward"] = {**(reward if isinstance(reward, dict) else {}),
+                          **_reward_terms(args.reward)}
+    return TrainConfig.from_dict(data, source=args.config or "train's flags")
+
+
+def _reward_terms(text: str) -> dict[str, float]:
+    """``"progress=1,crash=-10"`` -> ``{"progress": 1.0, "crash": -10.0}`` (checked names)."""
     import dataclasses
 
     from h2h_racing.config import RewardConfig
 
-    if not text:
-        return RewardConfig()
     names = [f.name for f in dataclasses.fields(RewardConfig)]
     weights = {}
     for item in text.split(","):
@@ -202,7 +221,7 @@ def _reward_weights(text: str | None) -> RewardConfig:
         except ValueError:
             raise SystemExit(f"error: --reward {name}={value!r}: the weight must be a "
                              "number") from None
-    return RewardConfig(**weights)
+    return weights
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
@@ -296,13 +315,17 @@ def build_parser() -> argparse.ArgumentParser:
     race.set_defaults(func=_cmd_race)
 
     train = sub.add_parser("train", help="train a policy with rsl-rl PPO (needs h2h-racing[train])")
-    train.add_argument("--track", default="speedway",
+    train.add_argument("--config", default=None, metavar="TRAIN.toml",
+                       help="TrainConfig fields from a TOML file (e.g. policies/trained/"
+                            "ppo_generalist/imitate.toml, the first step of that policy's "
+                            "training); flags given override them")
+    train.add_argument("--track", default=None,
                        help="catalogue name, track file, random:<seed>, or 'procedural' (a new "
-                            "random track every 10 iterations)")
-    train.add_argument("--obs", default="state", choices=["state", "camera", "camera_only"],
+                            "random track every track_every iterations, 10 by default)")
+    train.add_argument("--obs", default=None, choices=["state", "camera", "camera_only"],
                        help="actor input: the state vector; camera + state vector; or camera + "
                             "own speed and steering (camera_only, DeepRacer's setting)")
-    train.add_argument("--rules", default="training", choices=["training", "race"],
+    train.add_argument("--rules", default=None, choices=["training", "race"],
                        help="training: an infraction ends the episode (DeepRacer's training); "
                             "race: a time penalty and the car goes on")
     train.add_argument("--reward", default=None, metavar="TERM=W,...",
@@ -315,23 +338,26 @@ def build_parser() -> argparse.ArgumentParser:
                        help="upper bound of the policy's standard deviation (actions in "
                             "[-1, 1]); unbounded by default")
     train.add_argument("--teacher", default=None, metavar="POLICY",
-                       help="distil this state policy (shipped name or policy.pt) into a camera "
-                            "policy (rsl-rl Distillation, the student drives) instead of PPO")
-    train.add_argument("--opponents", default="none",
-                       help="'none' (alone), a scripted driver name or a policy.pt")
+                       help="imitate instead of PPO (rsl-rl Distillation, the student drives): "
+                            "a scripted driver (racing_line, pure_pursuit, blocker) for any "
+                            "--obs, or a state policy (shipped name or policy.pt) for a camera "
+                            "student")
+    train.add_argument("--opponents", default=None,
+                       help="'none' (alone), a scripted driver name or a policy.pt, or several "
+                            "separated by commas (they share the env copies)")
     train.add_argument("--iterations", type=int, default=1000)
     train.add_argument("--minutes", type=float, default=None,
                        help="stop after this much training time (checked every 10 iterations)")
-    train.add_argument("--envs", type=int, default=256, help="env copies")
-    train.add_argument("--seed", type=int, default=0)
+    train.add_argument("--envs", type=int, default=None, help="env copies (default 256)")
+    train.add_argument("--seed", type=int, default=None)
     train.add_argument("--reward-function", default=None, metavar="REWARD.py",
                        help="train on a DeepRacer reward_function(params) file")
     train.add_argument("--model-metadata", default=None, metavar="model_metadata.json",
                        help="use a DeepRacer action space (discrete list or continuous ranges)")
-    train.add_argument("--simtrace", type=int, default=0, metavar="N",
+    train.add_argument("--simtrace", type=int, default=None, metavar="N",
                        help="write DeepRacer simtrace + metrics of N env copies (<= 10) to "
                             "OUT/simtrace")
-    train.add_argument("--eval-every", type=int, default=50, metavar="N",
+    train.add_argument("--eval-every", type=int, default=None, metavar="N",
                        help="every N iterations, evaluate the policy (tensorboard Eval/...) and "
                             "record a race to OUT/eval/iter_<n>.rrd; 0 turns it off")
     train.add_argument("--onnx", action=argparse.BooleanOptionalAction, default=True,

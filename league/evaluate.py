@@ -15,6 +15,7 @@ import numpy as np
 
 from h2h_racing.config import EnvConfig, RaceRules
 from h2h_racing.core import RaceCore
+from h2h_racing.track import Track
 from h2h_racing.track_io import load_track
 
 
@@ -50,13 +51,13 @@ class Evaluation:
                 f"{'coll':>5}")
 
 
-def evaluate(driver: Any, track: str, episodes: int = 20, seed: int = 0,
+def evaluate(driver: Any, track: str | Track, episodes: int = 20, seed: int = 0,
              **config: Any) -> Evaluation:
     """Run ``episodes`` one-lap attempts of ``driver`` alone on ``track``.
 
     Args:
         driver: A driver name or ``policy.pt`` path (``make_driver``), or a driver object.
-        track: Catalogue name, track file or ``random:<seed>``.
+        track: Catalogue name, track file, ``random:<seed>``, or a ``Track``.
         episodes: Lap attempts, started at ``k * L / episodes`` for k = 0 .. episodes - 1.
         seed: Seed of the core (obstacle randomisation).
         **config: Further ``EnvConfig`` fields (e.g. ``num_obstacles``).
@@ -66,9 +67,9 @@ def evaluate(driver: Any, track: str, episodes: int = 20, seed: int = 0,
     if isinstance(driver, str):
         driver = make_driver(driver, seed=seed)
     rules = RaceRules.preset("time_trial", "training")
-    env_config = EnvConfig(track=track, num_cars=1, race_type="time_trial", rules=rules,
-                           **config)
-    loaded = load_track(track)
+    loaded = track if isinstance(track, Track) else load_track(track)
+    env_config = EnvConfig(track=loaded.name if isinstance(track, Track) else track, num_cars=1,
+                           race_type="time_trial", rules=rules, **config)
     core = RaceCore(env_config, loaded, num_envs=episodes)
     core.reset(seed=seed, start=np.arange(episodes) * (loaded.length / episodes))
     driver.reset(core)

@@ -145,6 +145,12 @@ class LeagueConfig:
     weighting of the learner's decayed win rate x against each anchor (``pfsp.WEIGHTINGS``:
     ``"linear"`` 1 - x gives the anchor it loses to most copies). In run 9 the main beat
     racing_line and pure_pursuit in 73 % and 86 % of races but passed the blocker twice in 70."""
+    imitation_driver: str | None = None
+    """A scripted driver each learner is kept near (``TrainConfig.imitation_driver``)."""
+    imitation_coef: float = 0.0
+    """Weight of that behaviour-cloning term (``TrainConfig.imitation_coef``; 0: off). In
+    run 12 (league/README.md) the main stopped passing the blocker after 55 rounds, although
+    its start, ``racing_line_student``, and its teacher, ``racing_line``, pass it."""
     training_rules: str = "training"
     """Rules of the learners' episodes (``TrainConfig.rules``): ``"training"`` ends an episode
     at the first infraction; ``"race"`` gives a time penalty and goes on, as the evaluation
@@ -171,6 +177,17 @@ class LeagueConfig:
         if self.anchor_weighting != "uniform" and self.anchor_weighting not in WEIGHTINGS:
             raise ValueError(f"LeagueConfig.anchor_weighting must be 'uniform' or one of "
                              f"{sorted(WEIGHTINGS)}, got {self.anchor_weighting!r}")
+        from h2h_racing.policies.scripted import TEACHERS as SCRIPTED_TEACHERS
+
+        if self.imitation_driver is not None and self.imitation_driver not in SCRIPTED_TEACHERS:
+            raise ValueError(f"LeagueConfig.imitation_driver must be one of {SCRIPTED_TEACHERS}, "
+                             f"got {self.imitation_driver!r}")
+        if not (isinstance(self.imitation_coef, (int, float)) and self.imitation_coef >= 0):
+            raise ValueError(f"LeagueConfig.imitation_coef must be a number >= 0, got "
+                             f"{self.imitation_coef!r}")
+        if self.imitation_coef and self.imitation_driver is None:
+            raise ValueError("LeagueConfig.imitation_coef needs an imitation_driver (a scripted "
+                             f"driver: {', '.join(SCRIPTED_TEACHERS)})")
         if self.training_rules not in ("training", "race"):
             raise ValueError(f"LeagueConfig.training_rules must be 'training' or 'race', got "
                              f"{self.training_rules!r}")
@@ -253,6 +270,8 @@ class LeagueConfig:
                            init_std=self.init_std, max_std=self.max_std,
                            reward=RewardConfig(**self.reward), seed=seed,
                            rules=self.training_rules,
+                           imitation_driver=self.imitation_driver,
+                           imitation_coef=self.imitation_coef,
                            ppo=PPOConfig(learning_rate=self.learning_rate,
                                          entropy_coef=self.entropy_coef))
 
@@ -284,40 +303,6 @@ learner last round continues with its runner in memory; any other worker rebuild
 learner's ``runner.pt``. Module-level on purpose: it is the state of one worker process."""
 
 
-class PoolOpponent:
-    """Drives the opponent car of each env copy with that copy's driver.
-
-    Args:
-        specs: Driver of each env copy (``make_driver`` argument), length E.
-        seed: Seeds the ``random`` driver, if it plays.
-    """
-
-    def __init__(self, specs: tuple[str, ...], seed: int = 0) -> None:
-        from h2h_racing.policies import make_driver
-
-        self.names = sorted(set(specs))
-        self.drivers = [make_driver(name, rng=np.random.default_rng(seed)) if name == "random"
-                        else make_driver(name) for name in self.names]
-        index = {name: i for i, name in enumerate(self.names)}
-        self.assignment = np.array([index[s] for s in specs])
-
-    def reset(self, core: Any) -> None:
-        """Reset every driver (each drives all copies; rows are picked in ``act``)."""
-        if len(self.assignment) != core.num_envs:
-            raise ValueError(f"{len(self.assignment)} opponent assignments for "
-                             f"{core.num_envs} env copies")
-        for driver in self.drivers:
-            driver.reset(core)
-
-    def act(self, core: Any, car: int) -> np.ndarray:
-        """Actions of car ``car`` in every copy, each from its copy's driver, (E, 2)."""
-        actions = np.empty((core.num_envs, 2), dtype=np.float32)
-        for k, driver in enumerate(self.drivers):
-            rows = self.assignment == k
-            actions[rows] = np.asarray(driver.act(core, car))[rows]
-        return actions
-
-
 def train_round(job: TrainJob) -> dict[str, float]:
     """Run one round of PPO for ``job.learner``; save its state; return round statistics."""
     os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
@@ -325,6 +310,7 @@ def train_round(job: TrainJob) -> dict[str, float]:
     from rsl_rl.runners import OnPolicyRunner
 
     from h2h_racing.league.train import load_init, save_policy
+    from h2h_racing.league.vec_env import PoolOpponent
     from h2h_racing.track_io import load_track
 
     torch.set_num_threads(1)
@@ -366,11 +352,12 @@ def train_round(job: TrainJob) -> dict[str, float]:
     return {"steps": float(steps), "seconds": seconds}
 
 
-def _make_env(config: Any, opponent: PoolOpponent) -> Any:
+def _make_env(config: Any, opponent: Any) -> Any:
     from h2h_racing.league.vec_env import RacingVecEnv
 
     return RacingVecEnv(config.env_config(), num_envs=config.num_envs, learners=1,
-                        opponent=opponent, observations=config.observations, seed=config.seed)
+                        opponent=opponent, observations=config.observations, seed=config.seed,
+                        expert=config.expert())
 
 
 def _atomic(write: Any, path: Path) -> None:

@@ -7,6 +7,13 @@ output folder, then writes ``policy.pt``: a self-contained policy file that load
 with (see ``h2h_racing.policies.trained``). Every ``eval_every`` iterations it evaluates the
 current actor (``evaluate_during_training``): figures into the tensorboard log under ``Eval/``
 and a rerun recording of a race to ``<out>/eval/iter_<n>.rrd``.
+
+Instead of PPO, ``TrainConfig.teacher`` imitates a teacher with rsl-rl's ``Distillation``
+(DAgger: the student drives, the teacher labels the states it reaches): a state policy
+distilled into a camera policy, or a scripted driver (``racing_line``) whose actions the env
+computes in the learner's place (``RacingVecEnv``'s ``expert`` group, ``ScriptedTeacher``).
+Procedural runs can hold out random tracks (``validation_tracks``) and keep the actor that
+laps them best. ``TrainConfig.from_toml`` reads a config file (``h2h-racing train --config``).
 """
 
 from __future__ import annotations
@@ -16,7 +23,9 @@ import dataclasses
 import importlib.util
 import os
 import time
+import tomllib
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -31,10 +40,14 @@ from rsl_rl.models import MLPModel  # noqa: E402
 from rsl_rl.modules.distribution import GaussianDistribution  # noqa: E402
 
 from h2h_racing.config import EnvConfig, RaceRules, RewardConfig  # noqa: E402
-from h2h_racing.league.vec_env import OBSERVATIONS, RacingVecEnv  # noqa: E402
+from h2h_racing.league.vec_env import OBSERVATIONS, PoolOpponent, RacingVecEnv  # noqa: E402
+from h2h_racing.policies.scripted import TEACHERS  # noqa: E402
 from h2h_racing.track import Track  # noqa: E402
 from h2h_racing.track_gen import random_track  # noqa: E402
 
+SCRIPTED_TEACHERS = TEACHERS
+"""Scripted drivers a ``TrainConfig.teacher`` or ``imitation_driver`` can name (their actions
+reach the learner through the env's ``expert`` observation group)."""
 POLICY_FORMAT = "h2h-racing-policy/1"
 """Value of the ``format`` key of a policy file."""
 STD_FLOOR = 1e-6
@@ -142,6 +155,12 @@ class TrainConfig:
     ``chicanes``): S-bends as on ``technical``'s start straight, which smooth loops lack.
     (0, 0) (as ``ppo_procedural``): (1, 4) with half the tracks reversed and corners down to
     0.5 m lapped 72.1 %, 0 % on ``technical``."""
+    procedural_tight_share: float = 0.0
+    """Share of procedural tracks that are short, narrow and twisty like ``technical``
+    (``random_training_track``'s ``tight_share``): the other generated tracks spend 0-5 % of
+    their lap in corners under 1 m radius, ``technical`` 40 %. 0.3 (with imitation of the
+    racing line, then PPO) trained ``ppo_generalist``, the first procedural policy to lap
+    ``technical``."""
     observations: Literal["state", "camera", "camera_only"] = "state"
     """Actor input: the state vector; the camera plus the state vector; or the camera plus the
     car's own speed and steering angle (``camera_only``: DeepRacer's setting, no track geometry
@@ -149,7 +168,9 @@ class TrainConfig:
     num_cars: int = 1
     """Cars per env copy."""
     opponent: str | None = None
-    """Driver of the cars that are not learners (a ``h2h_racing.policies`` driver name)."""
+    """Driver of the cars that are not learners: a ``h2h_racing.policies`` driver name or a
+    ``policy.pt``, or several separated by commas, which share the env copies (copy ``e``
+    races the ``e mod k``-th of the ``k`` names; ``PoolOpponent``)."""
     learners: int | None = None
     """Learner cars per copy; None means every car (self-play with parameter sharing)."""
     num_envs: int = 256
@@ -199,11 +220,36 @@ class TrainConfig:
     (fine-tuning; its observations and hidden sizes must be this run's); None starts from
     random weights. The critic always starts fresh."""
     teacher: str | None = None
-    """A state-observation policy (shipped name or ``policy.pt``) to distil into this run's
-    actor with rsl-rl's ``Distillation`` instead of training it with PPO: the student drives
-    (DAgger: it learns on the states its own driving reaches) and is regressed onto the
-    teacher's actions there. The fast way to a camera policy on a CPU: no critic, one pass per
-    rollout. None trains with PPO."""
+    """What to imitate with rsl-rl's ``Distillation`` instead of training with PPO: a
+    state-observation policy (shipped name or ``policy.pt``) distilled into a camera actor,
+    or a scripted driver (``SCRIPTED_TEACHERS``, e.g. ``"racing_line"``) imitated by any
+    actor. The student drives (DAgger: it learns on the states its own driving reaches) and is
+    regressed onto the teacher's actions there. The fast way to a camera policy on a CPU (no
+    critic, one pass per rollout), and a scripted teacher brings what it knows of every track
+    (``racing_line`` laps every shipped and generated track) to a state policy before PPO
+    fine-tunes it (``init``), as AlphaStar's agents start from supervised learning. None
+    trains with PPO."""
+    teacher_options: dict[str, float] = field(default_factory=dict)
+    """Constructor arguments of the scripted driver that labels actions (a scripted
+    ``teacher`` or the ``imitation_driver``), e.g. ``{"grip_factor": 0.6, "margin": 0.2}`` for
+    a ``RacingLine`` that corners at 60 % of the grip and keeps 0.2 m from the borders."""
+    imitation_driver: str | None = None
+    """A scripted driver (``SCRIPTED_TEACHERS``) that PPO's actor is kept near with
+    ``imitation_coef``."""
+    imitation_coef: float = 0.0
+    """Weight of a behaviour-cloning term in PPO (``ImitationPPO``): after each PPO update the
+    actor's mean actions in the rollout's states are regressed (MSE, one pass over the
+    mini-batches) onto the ``imitation_driver``'s actions in those states, as AlphaStar's
+    agents are kept near the supervised policy by a KL term (for Gaussians of equal std, a
+    squared distance of the means): reinforcement learning improves on the driver without
+    forgetting what it does well. 0 turns it off."""
+    validation_tracks: int = 0
+    """Procedural runs: held-out random tracks (drawn like the training tracks, from their own
+    seed, never trained on) on which every evaluation (``eval_every``) also makes
+    ``eval_episodes`` lap attempts each. With any, ``policy.pt`` holds the actor of the
+    evaluation with the highest lap completion on them (the later one on ties; the final
+    actor is evaluated too) rather than the last actor: one update can cost a policy a corner
+    type that the next track does not have."""
     distill: DistillConfig = field(default_factory=DistillConfig)
     """Distillation hyper-parameters (used with ``teacher``)."""
     rules: Literal["training", "race"] = "training"
@@ -219,11 +265,38 @@ class TrainConfig:
         if self.observations not in OBSERVATIONS:
             raise ValueError(f"TrainConfig.observations must be one of {OBSERVATIONS}, got "
                              f"{self.observations!r}")
-        if self.teacher is not None and self.observations == "state":
+        if not (isinstance(self.imitation_coef, (int, float)) and self.imitation_coef >= 0):
+            raise ValueError(f"TrainConfig.imitation_coef must be a number >= 0, got "
+                             f"{self.imitation_coef!r}")
+        if self.imitation_driver is not None and self.imitation_driver not in SCRIPTED_TEACHERS:
+            raise ValueError(f"TrainConfig.imitation_driver must be one of {SCRIPTED_TEACHERS}, "
+                             f"got {self.imitation_driver!r}")
+        if self.imitation_coef and (self.imitation_driver is None or self.teacher is not None):
+            raise ValueError("TrainConfig.imitation_coef keeps PPO's actor near a scripted "
+                             "driver: name it in imitation_driver (and leave teacher unset: a "
+                             "teacher replaces PPO by imitation)")
+        if self.teacher_options:
+            if not self.scripted_teacher and self.imitation_driver is None:
+                raise ValueError(f"TrainConfig.teacher_options are arguments of a scripted "
+                                 f"teacher or imitation_driver ({', '.join(SCRIPTED_TEACHERS)}), "
+                                 f"but teacher is {self.teacher!r}")
+            self.expert()
+        if not (isinstance(self.validation_tracks, int) and self.validation_tracks >= 0):
+            raise ValueError(f"TrainConfig.validation_tracks must be an int >= 0, got "
+                             f"{self.validation_tracks!r}")
+        if self.validation_tracks and self.track != PROCEDURAL:
+            raise ValueError("TrainConfig.validation_tracks are held-out random tracks for "
+                             "track='procedural' runs; a fixed track has no held-out tracks")
+        if self.validation_tracks and not self.eval_every:
+            raise ValueError("TrainConfig.validation_tracks are driven at the evaluations: set "
+                             "eval_every > 0 (iterations between them)")
+        if self.teacher is not None and self.observations == "state" and not self.scripted_teacher:
             raise ValueError("TrainConfig.teacher distils a state policy into a camera policy: "
                              "set observations to 'camera_only' or 'camera' (a state student "
-                             "of a state teacher would only copy it)")
-        for name in ("procedural_varying_share", "procedural_reverse_share"):
+                             "of a state teacher would only copy it), or imitate a scripted "
+                             f"driver ({', '.join(SCRIPTED_TEACHERS)})")
+        for name in ("procedural_varying_share", "procedural_reverse_share",
+                     "procedural_tight_share"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ValueError(f"TrainConfig.{name} must be in [0, 1], got "
                                  f"{getattr(self, name)!r}")
@@ -266,6 +339,69 @@ class TrainConfig:
         if not (isinstance(self.eval_race_seconds, (int, float)) and self.eval_race_seconds > 0):
             raise ValueError(f"TrainConfig.eval_race_seconds must be > 0 [s], got "
                              f"{self.eval_race_seconds!r}")
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], source: str = "train config") -> TrainConfig:
+        """Build from plain data (a parsed TOML file): top-level keys are this class's fields,
+        the tables ``[ppo]``, ``[distill]`` and ``[reward]`` fill ``PPOConfig``,
+        ``DistillConfig`` and ``RewardConfig``; unknown keys raise ``ValueError``."""
+        nested = {"ppo": PPOConfig, "distill": DistillConfig, "reward": RewardConfig}
+        values = dict(data)
+        for key, kind in ((None, cls), *nested.items()):
+            table = values if key is None else values.get(key, {})
+            if key is not None and not isinstance(table, dict):
+                raise ValueError(f"{source}: {key!r} must be a table of {kind.__name__} fields, "
+                                 f"got {table!r}")
+            known = {f.name for f in dataclasses.fields(kind)}
+            unknown = sorted(set(table) - known)
+            if unknown:
+                where = "" if key is None else f"[{key}] "
+                raise ValueError(f"{source}: {where}unknown keys {unknown}; allowed keys are "
+                                 f"{sorted(known)}")
+        for key, kind in nested.items():
+            if key in values:
+                values[key] = kind(**values[key])
+        for f in dataclasses.fields(cls):
+            if isinstance(values.get(f.name), list):
+                values[f.name] = tuple(values[f.name])
+        try:
+            return cls(**values)
+        except (TypeError, ValueError) as err:
+            raise ValueError(f"{source}: {err}") from None
+
+    @classmethod
+    def from_toml(cls, path: str | Path) -> TrainConfig:
+        """Read a training config file (see ``from_dict``; e.g.
+        ``policies/trained/ppo_generalist/imitate.toml``)."""
+        try:
+            with open(path, "rb") as handle:
+                data = tomllib.load(handle)
+        except tomllib.TOMLDecodeError as err:
+            raise ValueError(f"{path}: not valid TOML: {err}") from None
+        return cls.from_dict(data, source=str(path))
+
+    def opponents(self) -> list[str]:
+        """The drivers named by ``opponent`` (empty without one)."""
+        return [] if self.opponent is None else [n.strip() for n in self.opponent.split(",")]
+
+    @property
+    def scripted_teacher(self) -> bool:
+        """Whether ``teacher`` names a scripted driver (imitated through the ``expert`` group)."""
+        return self.teacher in SCRIPTED_TEACHERS
+
+    def expert(self) -> Any:
+        """The scripted driver that labels actions (the env's ``expert`` group): a scripted
+        ``teacher``, else the ``imitation_driver``, with ``teacher_options``; or None."""
+        name = self.teacher if self.scripted_teacher else self.imitation_driver
+        if name is None:
+            return None
+        from h2h_racing.policies import make_driver
+
+        try:
+            return make_driver(name, **self.teacher_options)
+        except TypeError as err:
+            raise ValueError(f"TrainConfig.teacher_options {self.teacher_options!r} do not fit "
+                             f"the {name!r} driver: {err}") from None
 
     def env_config(self) -> EnvConfig:
         """The env the learners race in: ``rules`` (DeepRacer's training rules by default: an
@@ -323,17 +459,23 @@ class TrainConfig:
         loaded here unless given)."""
         actor = self.actor_dict()
         if self.teacher is not None:
-            teacher = teacher if teacher is not None else load_teacher(self)
+            if self.scripted_teacher:
+                teacher_groups = ["expert"]
+                teacher_model = {"class_name": "h2h_racing.league.train:ScriptedTeacher"}
+            else:
+                teacher = teacher if teacher is not None else load_teacher(self)
+                teacher_groups = ["policy"]
+                teacher_model = {**copy.deepcopy(teacher["actor_cfg"]),
+                                 "class_name": "h2h_racing.league.train:ClippedTeacher"}
             return {
                 "num_steps_per_env": self.num_steps_per_env,
                 "save_interval": 50,
-                "obs_groups": {"student": self.actor_groups(), "teacher": ["policy"]},
+                "obs_groups": {"student": self.actor_groups(), "teacher": teacher_groups},
                 "algorithm": {"class_name": "Distillation", "loss_type": "mse",
                               **{k: v for k, v in dataclasses.asdict(self.distill).items()
                                  if k != "student_std"}},
                 "student": actor,
-                "teacher": {**copy.deepcopy(teacher["actor_cfg"]),
-                            "class_name": "h2h_racing.league.train:ClippedTeacher"},
+                "teacher": teacher_model,
             }
         # The critic reads the privileged state; with the camera and the state vector it also
         # gets the camera (as first built). A camera-only actor's critic needs no CNN: the
@@ -345,13 +487,18 @@ class TrainConfig:
             critic = {**critic, "class_name": "CNNModel",
                       "cnn_cfg": copy.deepcopy(actor["cnn_cfg"])}
             critic_groups = ["critic", "camera"]
+        algorithm: dict[str, Any] = {"class_name": "PPO", "schedule": "adaptive",
+                                     **dataclasses.asdict(self.ppo)}
+        if self.imitation_coef:
+            algorithm.update(class_name="h2h_racing.league.train:ImitationPPO",
+                             imitation_coef=float(self.imitation_coef))
+        elif self.max_std is not None:
+            algorithm["class_name"] = "h2h_racing.league.train:BoundedStdPPO"
         return {
             "num_steps_per_env": self.num_steps_per_env,
             "save_interval": 50,
             "obs_groups": {"actor": self.actor_groups(), "critic": critic_groups},
-            "algorithm": {"class_name": "PPO" if self.max_std is None
-                          else "h2h_racing.league.train:BoundedStdPPO", "schedule": "adaptive",
-                          **dataclasses.asdict(self.ppo)},
+            "algorithm": algorithm,
             "actor": actor,
             "critic": critic,
         }
@@ -360,10 +507,16 @@ class TrainConfig:
         """Build the VecEnv for this config (logging ``simtrace_envs`` copies to ``simtrace``
         when both are given)."""
         log = None if simtrace is None or not self.simtrace_envs else str(simtrace)
+        opponent: Any = self.opponent
+        if opponent is not None and "," in opponent:
+            names = self.opponents()
+            opponent = PoolOpponent(tuple(names[e % len(names)] for e in range(self.num_envs)),
+                                    seed=self.seed)
         return RacingVecEnv(self.env_config(), num_envs=self.num_envs, learners=self.learners,
-                            opponent=self.opponent, observations=self.observations,
+                            opponent=opponent, observations=self.observations,
                             seed=self.seed, device=device, reward_function=self.reward_function,
-                            simtrace=log, simtrace_envs=max(self.simtrace_envs, 1))
+                            simtrace=log, simtrace_envs=max(self.simtrace_envs, 1),
+                            expert=self.expert())
 
 
 def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
@@ -387,6 +540,9 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
     log_dir = None if out is None else str(Path(out))
     if config.teacher is None:
         runner = OnPolicyRunner(env, config.rsl_rl_dict(), log_dir=log_dir, device="cpu")
+    elif config.scripted_teacher:
+        runner = DistillationRunner(env, config.rsl_rl_dict(), log_dir=log_dir, device="cpu")
+        runner.alg.teacher_loaded = True  # the env's expert group: no weights to load
     else:
         teacher = load_teacher(config)
         runner = DistillationRunner(env, config.rsl_rl_dict(teacher), log_dir=log_dir,
@@ -405,6 +561,9 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
     if minutes is not None:
         chunk = 10
     tracks = np.random.default_rng(config.seed + 1)
+    validation = validation_tracks(config) if procedural and eval_every else []
+    best: tuple[float, int] | None = None  # (validation lap completion, iteration)
+    best_payload: dict[str, Any] | None = None
     save_interval = runner.cfg["save_interval"]
     extra: Path | None = None
     while done < iterations:
@@ -416,7 +575,7 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
                 env.set_track(random_training_track(
                     tracks, config.procedural_varying_share, config.procedural_min_radius,
                     config.procedural_length, config.procedural_reverse_share,
-                    config.procedural_chicanes))
+                    config.procedural_chicanes, config.procedural_tight_share))
             step = min(step, config.track_every - done % config.track_every)
         if eval_every:
             step = min(step, eval_every - done % eval_every)
@@ -433,17 +592,41 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
         # keep the first writer for the whole run.
         runner.logger.init_logging_writer = _keep_writer
         done += step
-        if eval_every and done % eval_every == 0:
-            evaluate_during_training(runner, config, Path(out), done)  # type: ignore[arg-type]
-        if minutes is not None and time.perf_counter() - start > 60.0 * minutes:
+        over_time = minutes is not None and time.perf_counter() - start > 60.0 * minutes
+        last = over_time or done >= iterations
+        if eval_every and (done % eval_every == 0 or (validation and last)):
+            scalars = evaluate_during_training(runner, config, Path(out),  # type: ignore[arg-type]
+                                               done, validation)
+            if validation and (best is None or scalars["validation_completion"] >= best[0]):
+                best = (scalars["validation_completion"], done)
+                best_payload = policy_payload(runner, config)
+        if over_time:
             break
     env.close()
     if runner.logger.writer is not None:
         runner.logger.writer.close()
     if out is not None:
-        save_policy(runner, config, Path(out) / "policy.pt",
-                    training={"iterations": done, "seconds": time.perf_counter() - start})
+        training = {"iterations": done, "seconds": time.perf_counter() - start}
+        if best is not None:
+            training.update(selected_iteration=best[1], validation_completion=best[0])
+            print(f"policy.pt: the actor of iteration {best[1]} (lap completion "
+                  f"{100 * best[0]:.1f} % on {len(validation)} held-out random tracks)")
+        save_policy(runner, config, Path(out) / "policy.pt", training=training,
+                    payload=best_payload)
     return runner
+
+
+def validation_tracks(config: TrainConfig) -> list[Track]:
+    """``config.validation_tracks`` random tracks drawn like a procedural run's training tracks
+    but from seed ``config.seed + 2`` (the training tracks come from ``seed + 1``): tracks
+    the run never trains on, for choosing among its actors without looking at the shipped
+    tracks it is judged on."""
+    rng = np.random.default_rng(config.seed + 2)
+    return [random_training_track(rng, config.procedural_varying_share,
+                                  config.procedural_min_radius, config.procedural_length,
+                                  config.procedural_reverse_share, config.procedural_chicanes,
+                                  config.procedural_tight_share)
+            for _ in range(config.validation_tracks)]
 
 
 def _keep_writer() -> None:
@@ -451,7 +634,8 @@ def _keep_writer() -> None:
 
 
 def evaluate_during_training(runner: Any, config: TrainConfig, out: str | Path,
-                             iteration: int) -> dict[str, float]:
+                             iteration: int, validation: Sequence[Track] = ()
+                             ) -> dict[str, float]:
     """Evaluate the runner's current actor, log the figures and record a race.
 
     The actor becomes a ``TrainedPolicy`` straight from memory (no file). On the evaluation
@@ -467,13 +651,16 @@ def evaluate_during_training(runner: Any, config: TrainConfig, out: str | Path,
     ``Eval/lap_completion`` (fraction of attempts), ``Eval/mean_lap_time`` and
     ``Eval/best_lap_time`` [s] (only when a lap was completed), ``Eval/off_tracks`` (attempts
     that ended off track) and ``Eval/collisions`` (contacts, over all attempts), and of the
-    race ``Eval/race_finished`` (1 or 0) and ``Eval/race_position`` (1 = first).
+    race ``Eval/race_finished`` (1 or 0) and ``Eval/race_position`` (1 = first). With
+    ``validation`` tracks, ``Eval/validation_completion``: the fraction of
+    ``config.eval_episodes`` attempts per track completed over all of them.
 
     Args:
         runner: The rsl-rl ``OnPolicyRunner`` being trained.
         config: Its training config.
         out: The run's output folder.
         iteration: Iterations completed (names the recording and steps the log).
+        validation: Held-out tracks (``validation_tracks``).
 
     Returns:
         The figures, keyed as logged without the ``Eval/`` prefix.
@@ -497,9 +684,14 @@ def evaluate_during_training(runner: Any, config: TrainConfig, out: str | Path,
     if np.isfinite(figures.mean_lap_time):
         scalars["mean_lap_time"] = figures.mean_lap_time
         scalars["best_lap_time"] = figures.best_lap_time
+    if validation:
+        scalars["validation_completion"] = float(np.mean([
+            evaluate(driver, track, episodes=config.eval_episodes, seed=config.seed,
+                     **env_fields).lap_completion for track in validation]))
 
     learners = config.num_cars if config.learners is None else config.learners
-    drivers = [driver] * learners + [config.opponent] * (config.num_cars - learners)
+    # With several opponents the recorded race is against the first.
+    drivers = [driver] * learners + config.opponents()[:1] * (config.num_cars - learners)
     save = None
     if importlib.util.find_spec("rerun") is not None:
         save = out / "eval" / f"iter_{iteration}.rrd"
@@ -521,9 +713,11 @@ def evaluate_during_training(runner: Any, config: TrainConfig, out: str | Path,
             writer.add_scalar(f"Eval/{key}", value, iteration)
         writer.flush()
     lap = (f"{scalars['mean_lap_time']:.2f} s" if "mean_lap_time" in scalars else "-")
+    held_out = (f", {100 * scalars['validation_completion']:.1f} % on {len(validation)} "
+                f"held-out tracks" if validation else "")
     print(f"eval at iteration {iteration}: laps {100 * figures.lap_completion:.0f} % of "
-          f"{figures.episodes}, mean lap {lap}, off track {figures.off_tracks}, race position "
-          f"{mine['position']}/{config.num_cars}" + (f" -> {save}" if save else ""))
+          f"{figures.episodes}{held_out}, mean lap {lap}, off track {figures.off_tracks}, race "
+          f"position {mine['position']}/{config.num_cars}" + (f" -> {save}" if save else ""))
     return scalars
 
 
@@ -540,6 +734,41 @@ class ClippedTeacher(MLPModel):  # type: ignore[misc]
         return super().forward(*args, **kwargs).clamp(-1.0, 1.0)
 
 
+class ScriptedTeacher(torch.nn.Module):
+    """A distillation teacher that is a scripted driver: it returns the ``expert`` observation
+    group (``RacingVecEnv(expert=...)``: the driver's action in the learner's state), so
+    rsl-rl's ``Distillation`` regresses the student onto the driver's actions. No weights.
+
+    Built by rsl-rl as ``ScriptedTeacher(obs, obs_groups, "teacher", num_actions)``; the
+    ``teacher`` observation set must be exactly ``["expert"]``.
+    """
+
+    is_recurrent = False
+
+    def __init__(self, obs: Any, obs_groups: dict[str, list[str]], obs_set: str,
+                 output_dim: int, **unused: Any) -> None:
+        super().__init__()
+        if obs_groups.get(obs_set) != ["expert"] or "expert" not in obs.keys():
+            raise ValueError(f"ScriptedTeacher reads the env's 'expert' observation group "
+                             f"(RacingVecEnv(expert=...)); got obs_groups[{obs_set!r}] = "
+                             f"{obs_groups.get(obs_set)!r} and groups {list(obs.keys())}")
+        if obs["expert"].shape[-1] != output_dim:
+            raise ValueError(f"the expert group has {obs['expert'].shape[-1]} actions, the "
+                             f"student {output_dim}")
+
+    def forward(self, obs: Any, *args: Any, **kwargs: Any) -> torch.Tensor:
+        return obs["expert"]
+
+    def reset(self, dones: Any = None, hidden_state: Any = None) -> None:
+        """Stateless (rsl-rl resets recurrent models through this)."""
+
+    def get_hidden_state(self) -> None:
+        return None
+
+    def detach_hidden_state(self, dones: Any = None) -> None:
+        """Stateless."""
+
+
 class BoundedStdPPO(PPO):  # type: ignore[misc]
     """rsl-rl's PPO, with the actor's standard deviation projected into its distribution's
     ``std_range`` after every update (``TrainConfig.max_std``).
@@ -554,6 +783,51 @@ class BoundedStdPPO(PPO):  # type: ignore[misc]
         losses = super().update()
         project_std(self.get_policy())
         return losses
+
+
+class ImitationPPO(BoundedStdPPO):
+    """rsl-rl's PPO (with ``BoundedStdPPO``'s std projection) plus a behaviour-cloning step
+    (``TrainConfig.imitation_coef``): after each PPO update, one pass over the rollout in
+    ``num_mini_batches`` mini-batches of the loss ``imitation_coef * mean((mu(o) - a*)^2)``,
+    where ``mu(o)`` is the actor's mean action and ``a*`` the scripted driver's action in the
+    same state (the ``expert`` observation group the env adds). With equal standard
+    deviations sigma, KL(N(a*, sigma) || N(mu, sigma)) = |mu - a*|^2 / (2 sigma^2), so this is
+    AlphaStar's KL to a fixed teacher up to scale. It uses PPO's optimizer and learning rate
+    (critic gradients stay None, so Adam leaves the critic alone).
+    """
+
+    def __init__(self, *args: Any, imitation_coef: float = 0.0, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.imitation_coef = imitation_coef
+
+    def update(self) -> dict[str, float]:
+        losses = super().update()
+        losses["imitation"] = self.imitate()
+        project_std(self.get_policy())
+        return losses
+
+    def imitate(self) -> float:
+        """One behaviour-cloning pass over the last rollout; return its mean loss."""
+        # storage.clear() (at the end of PPO's update) only rewinds the write cursor: the
+        # rollout's observations are still there.
+        obs = self.storage.observations.flatten(0, 1)
+        if "expert" not in obs.keys():
+            raise ValueError("ImitationPPO needs the env's 'expert' observation group "
+                             "(RacingVecEnv(expert=...); TrainConfig.imitation_driver)")
+        actor = self.get_policy()
+        rows = obs.batch_size[0]
+        size = max(1, rows // self.num_mini_batches)
+        order = torch.randperm(rows, device=self.device)
+        total = 0.0
+        for start in range(0, size * self.num_mini_batches, size):
+            batch = obs[order[start:start + size]]
+            loss = self.imitation_coef * (actor(batch) - batch["expert"]).pow(2).mean()
+            self.optimizer.zero_grad()
+            loss.backward()
+            torch.nn.utils.clip_grad_norm_(actor.parameters(), self.max_grad_norm)
+            self.optimizer.step()
+            total += loss.item()
+        return total / self.num_mini_batches
 
 
 def project_std(actor: Any) -> None:
@@ -613,20 +887,53 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
                           min_radius: float = 0.6,
                           length: tuple[float, float] = (20.0, 45.0),
                           reverse_share: float = 0.0,
-                          chicanes: tuple[int, int] = (0, 0)) -> Track:
+                          chicanes: tuple[int, int] = (0, 0),
+                          tight_share: float = 0.0) -> Track:
     """A random closed track for training: lap length drawn in ``length`` [m], width in the
     catalogue's range [0.76, 1.07] m: constant (drawn uniformly) or, on a ``varying_share`` of
     the tracks, varying along the lap between two widths drawn in that range (sorted); corners
     down to ``min_radius`` [m], or 1.2 x the widest half-width if that is larger
     (``random_track``), with a number of chicanes drawn in ``chicanes``; on a
-    ``reverse_share`` of the tracks driven clockwise (its name then ends in ``-cw``)."""
-    width: float | tuple[float, float] = float(rng.uniform(0.76, 1.07))
+    ``reverse_share`` of the tracks driven clockwise (its name then ends in ``-cw``).
+
+    A ``tight_share`` of the tracks are instead short, narrow and twisty, as ``technical`` is:
+    lap ``TIGHT_LENGTH``, constant width ``TIGHT_WIDTH``, control-point radii down to 0.3 of
+    the loop's size (deep bays: tight right-handers between left-handers), corners down to
+    ``min_radius``, 1-3 chicanes; 5-20 % of their lap is in corners under 1 m radius, against
+    0-5 % for the other tracks (``technical``: 40 %)."""
+    # No draw without the option: the same seed gives the same tracks as before it.
+    if tight_share > 0 and rng.random() < tight_share:
+        width: float | tuple[float, float] = float(rng.uniform(*TIGHT_WIDTH))
+        # About 1 in 12 calls of random_track finds no valid loop of this kind in its 100
+        # tries; the next call (same generator, new draws) almost always does.
+        for attempt in range(5):
+            try:
+                spec = random_track(rng, length_range=TIGHT_LENGTH, width=width,
+                                    min_radius=max(min_radius, 0.6 * width),
+                                    radius_range=(0.3, 1.0), chicanes=(1, 3))
+                break
+            except RuntimeError:
+                if attempt == 4:
+                    raise
+        return _maybe_reversed(rng, spec, reverse_share)
+    width = float(rng.uniform(0.76, 1.07))
     # No draw without varying widths: the same seed gives the same tracks as before the option.
     if varying_share > 0 and rng.random() < varying_share:
         width = (min(width, w := float(rng.uniform(0.76, 1.07))), max(width, w))
     widest = width if isinstance(width, float) else width[1]
     spec = random_track(rng, length_range=length, width=width,
                         min_radius=max(min_radius, 0.6 * widest), chicanes=chicanes)
+    return _maybe_reversed(rng, spec, reverse_share)
+
+
+TIGHT_LENGTH = (14.0, 22.0)
+"""Lap-length range of ``random_training_track``'s tight tracks [m] (``technical``: 20 m)."""
+TIGHT_WIDTH = (0.76, 0.9)
+"""Width range of the tight tracks [m] (``technical``: 0.76 m)."""
+
+
+def _maybe_reversed(rng: np.random.Generator, spec: Any, reverse_share: float) -> Track:
+    """``spec`` as a ``Track``, on a ``reverse_share`` of draws driven clockwise."""
     track = Track(spec.centre, spec.width_left, spec.width_right, name=spec.name,
                   description=spec.description, source="league.train.random_training_track")
     # As above: no draw without reversing, so that older settings give the same tracks.
@@ -658,15 +965,21 @@ def policy_payload(runner: Any, config: TrainConfig,
 
 
 def save_policy(runner: Any, config: TrainConfig, path: str | Path,
-                training: dict[str, float] | None = None) -> Path:
-    """Write the actor of ``runner`` and the configs it was trained with to ``path``.
+                training: dict[str, float] | None = None,
+                payload: dict[str, Any] | None = None) -> Path:
+    """Write the actor of ``runner`` (or the earlier actor of ``payload``, a ``policy_payload``)
+    and the configs it was trained with to ``path``, with ``training`` figures.
 
     The file holds only tensors and plain Python values, so it loads with
     ``torch.load(path, weights_only=True)``.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    torch.save(policy_payload(runner, config, training), path)
+    if payload is None:
+        payload = policy_payload(runner, config, training)
+    else:
+        payload = {**payload, "training": dict(training or {})}
+    torch.save(payload, path)
     return path
 
 

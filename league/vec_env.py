@@ -25,7 +25,11 @@ Observation groups (a ``TensorDict`` with batch size ``num_envs * learners``):
 - ``motion`` (with ``observations="camera_only"``): the learner's own forward speed and steering
   angle, (B, 2) float32 (state features 0 and 3, ``MOTION_FEATURES``). A camera-only actor
   reads ``camera`` and ``motion``: no track geometry and no other car's state, as DeepRacer's
-  camera models (which get the image alone) plus the car's odometry.
+  camera models (which get the image alone) plus the car's odometry;
+- ``expert`` (with ``expert``): the action a scripted driver would take in the learner's place,
+  (B, 2) float32 in [-1, 1], computed from the same state as the other groups. It is the label
+  of imitation learning (``h2h_racing.league.train.ScriptedTeacher``): the learner drives, the
+  expert says what it would have done there (DAgger). No actor reads it.
 
 Training starts: ``random_starts`` (the default) starts each episode of a copy at a random
 point of the lap; ``EnvConfig.round_robin_starts`` instead moves each copy's start
@@ -106,6 +110,8 @@ class RacingVecEnv(VecEnv):
             copies ``0 .. simtrace_envs - 1`` (one DRfC worker each); None writes none. Call
             ``close()`` at the end to write the metrics and unfinished episodes.
         simtrace_envs: How many copies to log (1-10; logging costs a few us per row).
+        expert: A scripted driver (name, e.g. ``"racing_line"``, or object) whose actions for
+            the learner cars fill the ``expert`` observation group; None adds no group.
 
     Raises:
         ValueError: For bad arguments, and for ``config.alternate_direction``: the copies
@@ -119,7 +125,8 @@ class RacingVecEnv(VecEnv):
                  observations: Literal["state", "camera", "camera_only"] = "state", seed: int = 0,
                  device: str = "cpu", track: Track | None = None,
                  random_starts: bool = True, reward_function: str | None = None,
-                 simtrace: str | None = None, simtrace_envs: int = 2) -> None:
+                 simtrace: str | None = None, simtrace_envs: int = 2,
+                 expert: str | Any | None = None) -> None:
         n = config.num_cars
         learners = n if learners is None else learners
         if not isinstance(learners, int) or not 1 <= learners <= n:
@@ -158,6 +165,11 @@ class RacingVecEnv(VecEnv):
 
             opponent = make_driver(opponent, seed=seed)
         self.opponent = opponent
+        if isinstance(expert, str):
+            from h2h_racing.policies import make_driver
+
+            expert = make_driver(expert, seed=seed)
+        self.expert = expert
         self.random_starts = random_starts
         self.core.seed(seed)
         self.core.reset(start=self._starts(num_envs))
@@ -182,8 +194,7 @@ class RacingVecEnv(VecEnv):
             self.simtrace = SimtraceWriter(simtrace, config, self.track,
                                            envs=range(simtrace_envs), cars=range(learners))
             self.simtrace.start(self.core)
-        if self.opponent is not None:
-            self.opponent.reset(self.core)
+        self._reset_drivers()
         if self._camera is not None:
             self._camera.reset(self.core)
         self._obs = self._observe()
@@ -290,8 +301,7 @@ class RacingVecEnv(VecEnv):
         self.core.rng = rng
         self.core.max_cycles = max_cycles
         self.core.reset(start=self._starts(self.core.num_envs))
-        if self.opponent is not None:
-            self.opponent.reset(self.core)
+        self._reset_drivers()
         if self._camera is not None:
             self._camera = CameraSensor(self.config.camera, track, self.config.car,
                                         (self.config.obstacle_length, self.config.obstacle_width))
@@ -319,6 +329,12 @@ class RacingVecEnv(VecEnv):
         return reward
 
 
+    def _reset_drivers(self) -> None:
+        """Per-track precompute of the opponent and the expert (racing lines are cached)."""
+        for driver in (self.opponent, self.expert):
+            if driver is not None:
+                driver.reset(self.core)
+
     def _starts(self, count: int) -> npt.NDArray[np.float64] | None:
         # None lets the core place the start: on the line, or its round-robin rotation.
         if not self.random_starts or self.config.round_robin_starts:
@@ -343,6 +359,11 @@ class RacingVecEnv(VecEnv):
             groups["camera"] = self._tensor(frames, torch.float32).div_(255.0)
         if self.observation_kind == "camera_only":
             groups["motion"] = self._tensor(policy[:, list(MOTION_FEATURES)], torch.float32)
+        if self.expert is not None:
+            # One batched call per learner car (over every copy), as the opponents are driven.
+            labels = np.stack([self.expert.act(core, car) for car in range(learners)], axis=1)
+            groups["expert"] = self._tensor(np.clip(labels, -1.0, 1.0).reshape(e * learners, 2),
+                                            torch.float32)
         return TensorDict(groups, batch_size=[e * learners], device=self.device)
 
     def _privileged(self) -> npt.NDArray[np.float32]:
@@ -381,3 +402,37 @@ class RacingVecEnv(VecEnv):
         if lap_times:  # rsl-rl averages what it is given; no NaN for "no lap yet"
             log["lap_time"] = float(np.mean(lap_times))
         return log
+
+
+class PoolOpponent:
+    """Drives the opponent car of each env copy with that copy's driver.
+
+    Args:
+        specs: Driver of each env copy (``make_driver`` argument), length E.
+        seed: Seeds the ``random`` driver, if it plays.
+    """
+
+    def __init__(self, specs: tuple[str, ...], seed: int = 0) -> None:
+        from h2h_racing.policies import make_driver
+
+        self.names = sorted(set(specs))
+        self.drivers = [make_driver(name, rng=np.random.default_rng(seed)) if name == "random"
+                        else make_driver(name) for name in self.names]
+        index = {name: i for i, name in enumerate(self.names)}
+        self.assignment = np.array([index[s] for s in specs])
+
+    def reset(self, core: Any) -> None:
+        """Reset every driver (each drives all copies; rows are picked in ``act``)."""
+        if len(self.assignment) != core.num_envs:
+            raise ValueError(f"{len(self.assignment)} opponent assignments for "
+                             f"{core.num_envs} env copies")
+        for driver in self.drivers:
+            driver.reset(core)
+
+    def act(self, core: Any, car: int) -> np.ndarray:
+        """Actions of car ``car`` in every copy, each from its copy's driver, (E, 2)."""
+        actions = np.empty((core.num_envs, 2), dtype=np.float32)
+        for k, driver in enumerate(self.drivers):
+            rows = self.assignment == k
+            actions[rows] = np.asarray(driver.act(core, car))[rows]
+        return actions

@@ -8,6 +8,7 @@
 from h2h_racing.policies.racing_line import RaceLine, compute_race_line, speed_profile
 from h2h_racing.policies.scripted import (
     DRIVERS,
+    TEACHERS,
     Blocker,
     Driver,
     PurePursuit,
@@ -21,6 +22,7 @@ from h2h_racing.policies.scripted import (
 
 __all__ = [
     "DRIVERS",
+    "TEACHERS",
     "Blocker",
     "Driver",
     "PurePursuit",

@@ -375,6 +375,9 @@ DRIVERS: dict[str, Callable[..., Driver]] = {
     "random": Random,
 }
 """Driver constructors by registry name."""
+TEACHERS = ("racing_line", "pure_pursuit", "blocker")
+"""Drivers that can label actions for imitation learning (deterministic functions of the state;
+``random`` teaches nothing)."""
 
 
 def make_driver(name: str, *, seed: int | None = None, **kwargs: Any) -> Driver:

@@ -31,6 +31,10 @@ class TestWheel:
             name = policy.parent.name
             assert f"h2h_racing/policies/trained/{name}/policy.pt" in names
             assert f"h2h_racing/policies/trained/{name}/CARD.md" in names
+        # The training config files shipped beside some cards (h2h-racing train --config).
+        for config in (REPO / "policies" / "trained").glob("*/*.toml"):
+            assert config.relative_to(REPO / "policies").as_posix() in {
+                n.removeprefix("h2h_racing/policies/") for n in names}
         # Every subpackage of h2h_racing/ made it (the package list in pyproject is explicit).
         for init in (REPO / "h2h_racing").rglob("__init__.py"):
             module = init.relative_to(REPO).as_posix()

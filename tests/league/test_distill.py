@@ -12,6 +12,7 @@ from tensordict import TensorDict
 
 import h2h_racing
 from h2h_racing.config import CameraConfig
+from h2h_racing.league.evaluate import evaluate
 from h2h_racing.league.train import DistillConfig, TrainConfig, policy_payload, train
 from h2h_racing.league.vec_env import RacingVecEnv
 from h2h_racing.policies.trained import TrainedPolicy
@@ -159,11 +160,108 @@ class TestDistillation:
         assert error(trained) < 0.5 * error(untrained)
 
 
+class TestScriptedTeacher:
+    """A scripted driver as the teacher: the student imitates it through the expert group."""
+
+    CONFIG = dataclasses.replace(TEACHER_CONFIG, teacher="racing_line",
+                                 distill=DistillConfig(learning_rate=3e-3))
+
+    def test_state_student_of_a_scripted_teacher_is_allowed(self) -> None:
+        assert self.CONFIG.scripted_teacher
+        cfg = self.CONFIG.rsl_rl_dict()
+        assert cfg["obs_groups"] == {"student": ["policy"], "teacher": ["expert"]}
+        assert cfg["teacher"] == {"class_name": "h2h_racing.league.train:ScriptedTeacher"}
+
+    def test_teacher_returns_the_expert_group(self) -> None:
+        from h2h_racing.league.train import ScriptedTeacher
+
+        runner = train(self.CONFIG, iterations=1)
+        assert isinstance(runner.alg.teacher, ScriptedTeacher)
+        obs = runner.env.get_observations()
+        assert torch.equal(runner.alg.teacher(obs), obs["expert"])
+
+    def test_teacher_options_make_the_expert(self) -> None:
+        config = dataclasses.replace(self.CONFIG, teacher_options={"margin": 0.2,
+                                                                   "grip_factor": 0.6})
+        expert = config.make_env().expert
+        assert (expert.margin, expert.grip_factor) == (0.2, 0.6)
+        with pytest.raises(ValueError, match="do not fit the 'racing_line' driver"):
+            dataclasses.replace(self.CONFIG, teacher_options={"grip": 0.6})
+        with pytest.raises(ValueError, match="grip_factor must be in"):
+            dataclasses.replace(self.CONFIG, teacher_options={"grip_factor": 1.5})
+        with pytest.raises(ValueError, match="are arguments of a scripted teacher"):
+            dataclasses.replace(STUDENT_CONFIG, teacher="ppo_speedway",
+                                teacher_options={"margin": 0.2})
+
+    def test_teacher_refuses_other_groups(self) -> None:
+        from h2h_racing.league.train import ScriptedTeacher
+
+        obs = TensorDict({"policy": torch.zeros(2, 3)}, batch_size=[2])
+        with pytest.raises(ValueError, match="reads the env's 'expert' observation group"):
+            ScriptedTeacher(obs, {"teacher": ["policy"]}, "teacher", 2)
+
+    def test_student_learns_the_drivers_actions(self) -> None:
+        # As for a policy teacher: the mean squared error of the student's actions against the
+        # racing line's, on the states the trained student drives into, must fall to under
+        # half of the untrained student's.
+        untrained = train(self.CONFIG, iterations=0)
+        trained = train(self.CONFIG, iterations=16)
+        obs = trained.env.get_observations()
+
+        def error(runner: object) -> float:
+            policy = runner.alg.get_policy()  # type: ignore[attr-defined]
+            policy.eval()
+            with torch.inference_mode():
+                return float(((policy(obs) - obs["expert"]) ** 2).mean())
+
+        assert error(trained) < 0.5 * error(untrained)
+
+
+class TestValidationTracks:
+    """validation_tracks: policy.pt holds the actor that lapped held-out random tracks best."""
+
+    def test_policy_file_is_the_best_validated_actor(self, tmp_path: Path) -> None:
+        from h2h_racing.league.train import validation_tracks
+
+        config = dataclasses.replace(
+            TestScriptedTeacher.CONFIG, track="procedural", track_every=2, eval_every=2,
+            eval_episodes=2, eval_race_seconds=1.0, validation_tracks=2)
+        train(config, iterations=5, out=tmp_path)
+        payload = torch.load(tmp_path / "policy.pt", weights_only=True)
+        training = payload["training"]
+        # Evaluations after iterations 2 and 4, and of the final actor (iteration 5).
+        assert training["iterations"] == 5 and training["selected_iteration"] in (2, 4, 5)
+        # The file's actor laps the held-out tracks as the selection says: 2 attempts on each
+        # of the 2 tracks, so the completion is a multiple of 1/4.
+        driver = TrainedPolicy(tmp_path / "policy.pt")
+        laps = [evaluate(driver, track, episodes=2, seed=config.seed).lap_completion
+                for track in validation_tracks(config)]
+        assert float(np.mean(laps)) == training["validation_completion"]
+        assert (4 * training["validation_completion"]) % 1 == 0
+
+    def test_held_out_tracks_are_not_training_tracks(self) -> None:
+        from h2h_racing.league.train import random_training_track, validation_tracks
+
+        config = dataclasses.replace(TEACHER_CONFIG, track="procedural", validation_tracks=3)
+        rng = np.random.default_rng(config.seed + 1)
+        training = {random_training_track(rng).name for _ in range(30)}
+        held_out = [t.name for t in validation_tracks(config)]
+        assert len(set(held_out)) == 3 and not training & set(held_out)
+
+    def test_only_for_procedural_runs(self) -> None:
+        with pytest.raises(ValueError, match="validation_tracks are held-out random tracks"):
+            dataclasses.replace(TEACHER_CONFIG, validation_tracks=2)
+        with pytest.raises(ValueError, match="set eval_every > 0"):
+            dataclasses.replace(TEACHER_CONFIG, track="procedural", validation_tracks=2,
+                                eval_every=0)
+
+
 class TestTeacherChecks:
     """A teacher that cannot teach is a clear error before any training."""
 
     def test_state_student_refused(self, teacher: Path) -> None:
-        with pytest.raises(ValueError, match="set observations to 'camera_only'"):
+        with pytest.raises(ValueError, match="set observations to 'camera_only'.*or imitate "
+                                             "a scripted driver \\(racing_line"):
             TrainConfig(teacher=str(teacher))
 
     def test_missing_teacher(self, tmp_path: Path) -> None:

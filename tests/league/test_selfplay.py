@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from h2h_racing.league.selfplay import League, LeagueConfig, LearnerSpec, PoolOpponent
+from h2h_racing.league.selfplay import League, LeagueConfig, LearnerSpec
+from h2h_racing.league.vec_env import PoolOpponent
 from h2h_racing.policies import make_driver, race_core
 
 LEAGUE_DIR = Path(__file__).resolve().parents[2] / "league"
@@ -144,6 +145,26 @@ def test_max_std_reaches_the_learners(tmp_path):
         dataclasses.replace(config, entropy_coef=-0.1)
     with pytest.raises(ValueError, match="learning_rate must be a number > 0"):
         dataclasses.replace(config, learning_rate=0)
+
+
+def test_imitation_term_reaches_the_learners():
+    from h2h_racing.league.selfplay import _make_env
+    from h2h_racing.league.vec_env import PoolOpponent
+
+    config = LeagueConfig.from_toml(LEAGUE_DIR / "guided.toml")
+    train_config = config.train_config(seed=0)
+    assert (train_config.imitation_driver, train_config.imitation_coef) == ("racing_line", 2.0)
+    assert train_config.rsl_rl_dict()["algorithm"]["class_name"].endswith(":ImitationPPO")
+    # The learners' envs give the racing line's actions as the expert group.
+    small = dataclasses.replace(train_config, num_envs=2, track="oval")
+    env = _make_env(small, PoolOpponent(("blocker", "pure_pursuit")))
+    assert env.get_observations()["expert"].shape == (2, 2)
+    with pytest.raises(ValueError, match="imitation_coef needs an imitation_driver"):
+        dataclasses.replace(config, imitation_driver=None)
+    with pytest.raises(ValueError, match="imitation_driver must be one of"):
+        dataclasses.replace(config, imitation_driver="random")
+    with pytest.raises(ValueError, match="imitation_coef must be a number >= 0"):
+        dataclasses.replace(config, imitation_coef=-2.0)
 
 
 def test_anchor_weighting_favours_the_anchor_the_learner_loses_to(tmp_path):

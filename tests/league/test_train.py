@@ -15,6 +15,7 @@ from h2h_racing.league.train import TrainConfig, train
 from h2h_racing.policies import make_driver
 from h2h_racing.policies.trained import TrainedPolicy, shipped_policies
 from h2h_racing.sensors.state import state_observation
+from h2h_racing.track_io import list_tracks
 
 SMALL = TrainConfig(track="oval", num_envs=8, num_steps_per_env=8, hidden_dims=(16, 16))
 
@@ -147,6 +148,41 @@ class TestConfig:
         with pytest.raises(ValueError, match="observations"):
             TrainConfig(observations="lidar")
 
+    def test_several_opponents_share_the_copies(self) -> None:
+        from h2h_racing.league.vec_env import PoolOpponent
+
+        config = dataclasses.replace(SMALL, num_cars=2, learners=1, num_envs=5,
+                                     opponent="pure_pursuit, blocker")
+        env = config.make_env()
+        assert isinstance(env.opponent, PoolOpponent)
+        # Copy e races opponent e mod 2: pure_pursuit, blocker, pure_pursuit, ...
+        names = [env.opponent.names[k] for k in env.opponent.assignment]
+        assert names == ["pure_pursuit", "blocker", "pure_pursuit", "blocker", "pure_pursuit"]
+        assert config.opponents() == ["pure_pursuit", "blocker"]
+
+    def test_from_toml_fills_nested_tables(self, tmp_path: Path) -> None:
+        path = tmp_path / "train.toml"
+        path.write_text('track = "procedural"\nteacher = "racing_line"\nnum_envs = 64\n'
+                        'procedural_length = [15.0, 30.0]\nhidden_dims = [64, 64]\n'
+                        '[distill]\nlearning_rate = 0.0003\n[reward]\ncrash = -10.0\n'
+                        '[ppo]\ngamma = 0.99\n')
+        config = TrainConfig.from_toml(path)
+        assert config.track == "procedural" and config.scripted_teacher
+        assert config.procedural_length == (15.0, 30.0) and config.hidden_dims == (64, 64)
+        assert config.distill.learning_rate == 0.0003 and config.distill.num_learning_epochs == 1
+        assert config.reward.crash == -10.0 and config.reward.progress == 1.0
+        assert config.ppo.gamma == 0.99
+
+    def test_from_dict_refuses_unknown_keys_and_bad_values(self) -> None:
+        with pytest.raises(ValueError, match=r"x.toml: unknown keys \['tracks'\]; allowed"):
+            TrainConfig.from_dict({"tracks": "oval"}, source="x.toml")
+        with pytest.raises(ValueError, match=r"\[reward\] unknown keys \['grip'\]"):
+            TrainConfig.from_dict({"reward": {"grip": 1.0}})
+        with pytest.raises(ValueError, match="'ppo' must be a table"):
+            TrainConfig.from_dict({"ppo": 3})
+        with pytest.raises(ValueError, match="x.toml: TrainConfig.observations must be one of"):
+            TrainConfig.from_dict({"observations": "lidar"}, source="x.toml")
+
 
 class TestCommands:
     """``h2h-racing train`` and ``h2h-racing evaluate`` from the command line."""
@@ -187,6 +223,52 @@ class TestInit:
         config = dataclasses.replace(SMALL, init=str(trained[0]), hidden_dims=(32, 32))
         with pytest.raises(ValueError, match="does not fit the actor being trained"):
             train(config, iterations=0)
+
+
+class TestImitationPPO:
+    """TrainConfig.imitation_coef: PPO plus a behaviour-cloning step towards a scripted
+    driver (the env's expert group)."""
+
+    CONFIG = dataclasses.replace(SMALL, imitation_driver="racing_line", imitation_coef=5.0)
+
+    def test_config_picks_the_algorithm_and_the_expert(self) -> None:
+        algorithm = self.CONFIG.rsl_rl_dict()["algorithm"]
+        assert algorithm["class_name"] == "h2h_racing.league.train:ImitationPPO"
+        assert algorithm["imitation_coef"] == 5.0
+        assert self.CONFIG.make_env().expert.name == "racing_line"
+        # Without the term: PPO (or BoundedStdPPO with max_std), and no expert group.
+        assert SMALL.rsl_rl_dict()["algorithm"]["class_name"] == "PPO"
+        assert "expert" not in SMALL.make_env().get_observations().keys()
+
+    def test_imitation_step_brings_the_actor_towards_the_driver(self) -> None:
+        runner = train(self.CONFIG, iterations=1)
+        alg = runner.alg
+        obs = alg.storage.observations.flatten(0, 1)
+
+        def error() -> float:
+            with torch.inference_mode():
+                return float((alg.get_policy()(obs) - obs["expert"]).pow(2).mean())
+
+        # The step uses PPO's optimizer at PPO's learning rate, which the KL schedule of this
+        # tiny run has adapted down (to ~4e-5); set it back to 1e-3. Each pass is then 4 Adam
+        # steps of ~1e-3 on the squared error over the same rollout: after 25 passes the
+        # error to the racing line's actions must have fallen by half.
+        for group in alg.optimizer.param_groups:
+            group["lr"] = 1e-3
+        before = error()
+        losses = [alg.imitate() for _ in range(25)]
+        assert error() < 0.5 * before
+        assert losses[-1] < losses[0]
+
+    def test_bad_settings_rejected(self) -> None:
+        with pytest.raises(ValueError, match="name it in imitation_driver"):
+            dataclasses.replace(SMALL, imitation_coef=1.0)
+        with pytest.raises(ValueError, match="imitation_driver must be one of"):
+            dataclasses.replace(SMALL, imitation_driver="random")
+        with pytest.raises(ValueError, match="imitation_coef must be a number >= 0"):
+            dataclasses.replace(self.CONFIG, imitation_coef=-1.0)
+        with pytest.raises(ValueError, match="leave teacher unset"):
+            dataclasses.replace(self.CONFIG, teacher="racing_line")
 
 
 class TestMaxStd:
@@ -254,6 +336,14 @@ class TestShippedPolicies:
         # (policies/README.md), so 11 s is 1.28 x the racing line's.
         assert result.mean_lap_time < 11.0
 
+    @pytest.mark.parametrize("track", list_tracks())
+    def test_generalist_laps_every_shipped_track(self, track: str) -> None:
+        from h2h_racing.league.evaluate import evaluate
+
+        # Its card: 40 of 40 attempts on each track; 5 of those start points here
+        # (k * L / 5 are every 8th of the card's k * L / 40).
+        assert evaluate("ppo_generalist", track, episodes=5).lap_completion == 1.0
+
 
 class TestProcedural:
     """track="procedural" trains on a new random track every track_every iterations."""
@@ -312,6 +402,27 @@ class TestProcedural:
         assert (np.median([-curvature(w.centre).min() for w in wiggly])
                 > 2 * np.median([-curvature(p.centre).min() for p in plain]))
 
+    def test_tight_tracks_are_short_narrow_and_twisty(self) -> None:
+        from h2h_racing.league.train import TIGHT_LENGTH, TIGHT_WIDTH, random_training_track
+
+        plain = [random_training_track(np.random.default_rng(s)) for s in range(6)]
+        tight = [random_training_track(np.random.default_rng(s), tight_share=1.0)
+                 for s in range(6)]
+
+        def twisty(track: object) -> float:
+            # Share of the lap in corners under 1 m radius (|curvature| > 1 / m).
+            return float((np.abs(track.curvature_vertex) > 1.0).mean())  # type: ignore[attr-defined]
+
+        for track in tight:
+            assert TIGHT_LENGTH[0] - 0.1 <= track.length <= TIGHT_LENGTH[1] + 0.1
+            assert TIGHT_WIDTH[0] <= float(track.width.min()) <= TIGHT_WIDTH[1] + 1e-9
+        assert min(twisty(t) for t in tight) > max(twisty(t) for t in plain)
+        # A share of 0 draws nothing: the same tracks as without the option.
+        assert [random_training_track(np.random.default_rng(s), tight_share=0.0).name
+                for s in range(6)] == [t.name for t in plain]
+        with pytest.raises(ValueError, match="procedural_tight_share must be in"):
+            dataclasses.replace(SMALL, procedural_tight_share=-0.1)
+
     def test_set_track_restarts_every_copy(self) -> None:
         from h2h_racing.league.vec_env import RacingVecEnv
         from h2h_racing.track_io import load_track
@@ -341,6 +452,28 @@ def test_train_cli_rules_and_reward(tmp_path: Path) -> None:
         main(["train", "--reward", "grip=2", "--out", str(tmp_path / "x")])
     with pytest.raises(SystemExit, match="must be a number"):
         main(["train", "--reward", "crash=lots", "--out", str(tmp_path / "x")])
+
+
+def test_train_cli_config_file_and_overriding_flags(tmp_path: Path) -> None:
+    """``--config`` gives the fields, flags given on the command line override them."""
+    from h2h_racing.cli import main
+
+    path = tmp_path / "train.toml"
+    path.write_text('track = "kidney"\nnum_envs = 4\neval_every = 0\nseed = 3\n'
+                    'procedural_tight_share = 0.25\n[reward]\ncrash = -10.0\ntime = -0.1\n')
+    out = tmp_path / "run"
+    assert main(["train", "--config", str(path), "--track", "oval", "--reward", "time=-0.05",
+                 "--iterations", "1", "--no-onnx", "--out", str(out)]) == 0
+    saved = torch.load(out / "policy.pt", weights_only=True)["train_config"]
+    assert saved["track"] == "oval" and saved["num_envs"] == 4 and saved["seed"] == 3
+    assert saved["procedural_tight_share"] == 0.25
+    # --reward changes the named term over the file's table; the file's crash stays.
+    assert saved["reward"]["time"] == -0.05 and saved["reward"]["crash"] == -10.0
+    with pytest.raises(SystemExit, match="no such file"):
+        main(["train", "--config", str(tmp_path / "nope.toml"), "--out", str(out)])
+    path.write_text("num_envs = [")
+    with pytest.raises(SystemExit, match="is not valid TOML"):
+        main(["train", "--config", str(path), "--out", str(out)])
 
 
 def test_train_cli_with_deepracer_inputs(tmp_path: Path) -> None:

@@ -69,6 +69,33 @@ class TestRows:
         with pytest.raises(ValueError, match="opponent"):
             RacingVecEnv(training_config(), num_envs=2, learners=1)
 
+    def test_expert_group_is_the_scripted_drivers_action_for_each_learner(self) -> None:
+        from h2h_racing.policies import make_driver
+
+        env = RacingVecEnv(training_config(num_cars=3), num_envs=4, learners=2,
+                           opponent="pure_pursuit", expert="racing_line")
+        for _ in range(5):
+            obs, *_ = env.step(torch.full((8, 2), 0.5))
+        # Rows are (copy, learner car) in copy-major order: row 2 e + c is car c of copy e.
+        reference = make_driver("racing_line")
+        reference.reset(env.core)
+        expected = np.stack([reference.act(env.core, car) for car in range(2)], axis=1)
+        assert obs["expert"].shape == (8, 2)
+        assert np.array_equal(obs["expert"].numpy(), expected.reshape(8, 2).astype(np.float32))
+        assert "expert" not in RacingVecEnv(training_config(), num_envs=1).get_observations()
+
+    def test_expert_follows_a_track_change(self) -> None:
+        from h2h_racing.policies import make_driver
+        from h2h_racing.track_io import load_track
+
+        env = RacingVecEnv(training_config(num_cars=1), num_envs=3, expert="racing_line")
+        env.set_track(load_track("kidney"))
+        reference = make_driver("racing_line")
+        reference.reset(env.core)
+        assert env.expert.line is not None and env.expert._track is env.core.track
+        assert np.array_equal(env.get_observations()["expert"].numpy(),
+                              reference.act(env.core, 0).astype(np.float32))
+
     def test_camera_group_is_channel_first_float(self) -> None:
         cfg = training_config(camera=dataclasses.replace(EnvConfig().camera, width=32,
                                                          height=24))
