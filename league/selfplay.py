@@ -151,6 +151,10 @@ class LeagueConfig:
     """Weight of that behaviour-cloning term (``TrainConfig.imitation_coef``; 0: off). In
     run 12 (league/README.md) the main stopped passing the blocker after 55 rounds, although
     its start, ``racing_line_student``, and its teacher, ``racing_line``, pass it."""
+    imitation_rounds: int | None = None
+    """Rounds over which that term fades linearly to 0 (``imitation_coef_at``); None: it
+    stays at ``imitation_coef``. Runs 13 and 14 held it constant: the mains kept passing the
+    blocker but never learnt to pass the racing line they were held near."""
     training_rules: str = "training"
     """Rules of the learners' episodes (``TrainConfig.rules``): ``"training"`` ends an episode
     at the first infraction; ``"race"`` gives a time penalty and goes on, as the evaluation
@@ -188,6 +192,11 @@ class LeagueConfig:
         if self.imitation_coef and self.imitation_driver is None:
             raise ValueError("LeagueConfig.imitation_coef needs an imitation_driver (a scripted "
                              f"driver: {', '.join(SCRIPTED_TEACHERS)})")
+        if self.imitation_rounds is not None and not (
+                isinstance(self.imitation_rounds, int) and not isinstance(self.imitation_rounds, bool)
+                and self.imitation_rounds >= 1):
+            raise ValueError(f"LeagueConfig.imitation_rounds must be an integer >= 1 (or left "
+                             f"out for a constant term), got {self.imitation_rounds!r}")
         if self.training_rules not in ("training", "race"):
             raise ValueError(f"LeagueConfig.training_rules must be 'training' or 'race', got "
                              f"{self.training_rules!r}")
@@ -259,6 +268,13 @@ class LeagueConfig:
     def rating_tracks(self) -> tuple[str, ...]:
         """Tracks of the placement races."""
         return self.placement_tracks or self.tracks
+
+    def imitation_coef_at(self, round_index: int) -> float:
+        """The behaviour-cloning weight in round ``round_index`` (0-based):
+        ``imitation_coef * max(0, 1 - round_index / imitation_rounds)``."""
+        if self.imitation_rounds is None:
+            return float(self.imitation_coef)
+        return float(self.imitation_coef) * max(0.0, 1.0 - round_index / self.imitation_rounds)
 
     def train_config(self, seed: int) -> Any:
         """The ``TrainConfig`` of every learner: two cars, one learner, race tracks."""
@@ -332,6 +348,8 @@ def train_round(job: TrainJob) -> dict[str, float]:
             runner.load(str(state))
         elif job.config.init is not None:
             load_init(runner, job.config.init)
+    if job.config.imitation_coef:
+        runner.alg.imitation_coef = job.config.imitation_coef_at(job.round)
     start = time.perf_counter()
     tracks = job.config.tracks
     first = tracks.index(job.track)

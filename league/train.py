@@ -808,6 +808,8 @@ class ImitationPPO(BoundedStdPPO):
 
     def imitate(self) -> float:
         """One behaviour-cloning pass over the last rollout; return its mean loss."""
+        if self.imitation_coef == 0:
+            return 0.0  # a step on a zero loss would still move the weights (Adam's momentum)
         # storage.clear() (at the end of PPO's update) only rewinds the write cursor: the
         # rollout's observations are still there.
         obs = self.storage.observations.flatten(0, 1)

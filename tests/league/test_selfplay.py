@@ -167,6 +167,30 @@ def test_imitation_term_reaches_the_learners():
         dataclasses.replace(config, imitation_coef=-2.0)
 
 
+def test_imitation_term_fades_over_imitation_rounds(tmp_path):
+    from h2h_racing.league import selfplay
+    from h2h_racing.league.selfplay import TrainJob, train_round
+
+    guided = LeagueConfig.from_toml(LEAGUE_DIR / "guided.toml")  # imitation_coef = 2
+    assert guided.imitation_coef_at(100) == 2.0  # no imitation_rounds: constant
+    fading = dataclasses.replace(guided, imitation_rounds=4)
+    # 2 * (1 - r / 4): 2, 1.5, 1, 0.5, then 0 from round 4 on.
+    assert [fading.imitation_coef_at(r) for r in range(6)] == [2.0, 1.5, 1.0, 0.5, 0.0, 0.0]
+    for bad in (0, 2.5, True):
+        with pytest.raises(ValueError, match="imitation_rounds must be an integer >= 1"):
+            dataclasses.replace(guided, imitation_rounds=bad)
+    # A learner's round trains with that round's weight.
+    smoke = dataclasses.replace(LeagueConfig.from_toml(LEAGUE_DIR / "smoke.toml"),
+                                imitation_driver="racing_line", imitation_coef=2.0,
+                                imitation_rounds=4, tracks=("oval",), iterations_per_round=1)
+    job = TrainJob(learner="fading", folder=str(tmp_path / "fading"), config=smoke, round=2,
+                   track="oval", opponents=("pure_pursuit",) * smoke.num_envs, reset=False,
+                   seed=0)
+    train_round(job)
+    runner = selfplay._RUNNERS.pop("fading")[1]
+    assert runner.alg.imitation_coef == 1.0
+
+
 def test_anchor_weighting_favours_the_anchor_the_learner_loses_to(tmp_path):
     from h2h_racing.league.pfsp import Payoff
 

@@ -260,6 +260,16 @@ class TestImitationPPO:
         assert error() < 0.5 * before
         assert losses[-1] < losses[0]
 
+    def test_a_zero_weight_leaves_the_actor_alone(self) -> None:
+        # A faded term (LeagueConfig.imitation_rounds) is 0: even a zero loss would move the
+        # weights through Adam's momentum from the PPO steps before, so no step is taken.
+        runner = train(self.CONFIG, iterations=1)
+        runner.alg.imitation_coef = 0.0
+        before = [p.detach().clone() for p in runner.alg.get_policy().parameters()]
+        assert runner.alg.imitate() == 0.0
+        after = list(runner.alg.get_policy().parameters())
+        assert all(torch.equal(a, b) for a, b in zip(before, after))
+
     def test_bad_settings_rejected(self) -> None:
         with pytest.raises(ValueError, match="name it in imitation_driver"):
             dataclasses.replace(SMALL, imitation_coef=1.0)
