@@ -46,6 +46,8 @@ from h2h_racing.league.store import LeagueStore, Player, file_sha256, player_for
 from h2h_racing.league.tournament import PAIR_ORDERS, Job, make_job, run_job
 
 ROLES = ("main", "main_exploiter", "league_exploiter")
+KL_FLOOR = 0.05
+"""Share of the target KL left to a main agent after ``LeagueConfig.main_kl_rounds``."""
 """Learner roles (AlphaStar's)."""
 
 
@@ -155,6 +157,13 @@ class LeagueConfig:
     """Rounds over which that term fades linearly to 0 (``imitation_coef_at``); None: it
     stays at ``imitation_coef``. Runs 13 and 14 held it constant: the mains kept passing the
     blocker but never learnt to pass the racing line they were held near."""
+    main_kl_rounds: int | None = None
+    """Rounds over which the main agents' PPO steps shrink (``desired_kl_at``): the target KL
+    of the adaptive learning-rate schedule (``PPOConfig.desired_kl``, 0.01) falls linearly
+    to ``KL_FLOOR`` (5 %) of itself, then stays there, as the PPO paper anneals its step size
+    over training (Schulman et al. 2017, Atari). Exploiters keep full steps (they are reset
+    and must learn anew). None: constant. In runs 12 to 15 every main was at its best after
+    about 40 rounds and worse at the end (league/README.md)."""
     training_rules: str = "training"
     """Rules of the learners' episodes (``TrainConfig.rules``): ``"training"`` ends an episode
     at the first infraction; ``"race"`` gives a time penalty and goes on, as the evaluation
@@ -192,11 +201,12 @@ class LeagueConfig:
         if self.imitation_coef and self.imitation_driver is None:
             raise ValueError("LeagueConfig.imitation_coef needs an imitation_driver (a scripted "
                              f"driver: {', '.join(SCRIPTED_TEACHERS)})")
-        if self.imitation_rounds is not None and not (
-                isinstance(self.imitation_rounds, int) and not isinstance(self.imitation_rounds, bool)
-                and self.imitation_rounds >= 1):
-            raise ValueError(f"LeagueConfig.imitation_rounds must be an integer >= 1 (or left "
-                             f"out for a constant term), got {self.imitation_rounds!r}")
+        for name in ("imitation_rounds", "main_kl_rounds"):
+            rounds = getattr(self, name)
+            if rounds is not None and not (isinstance(rounds, int)
+                                           and not isinstance(rounds, bool) and rounds >= 1):
+                raise ValueError(f"LeagueConfig.{name} must be an integer >= 1 (or left out "
+                                 f"for no fading), got {rounds!r}")
         if self.training_rules not in ("training", "race"):
             raise ValueError(f"LeagueConfig.training_rules must be 'training' or 'race', got "
                              f"{self.training_rules!r}")
@@ -276,6 +286,17 @@ class LeagueConfig:
             return float(self.imitation_coef)
         return float(self.imitation_coef) * max(0.0, 1.0 - round_index / self.imitation_rounds)
 
+    def desired_kl_at(self, round_index: int, role: str) -> float:
+        """The target KL of a learner's PPO steps in round ``round_index`` (0-based): for the
+        main agents ``desired_kl * max(KL_FLOOR, 1 - round_index / main_kl_rounds)``, else
+        ``desired_kl`` (``PPOConfig``'s)."""
+        from h2h_racing.league.train import PPOConfig
+
+        kl = PPOConfig().desired_kl
+        if self.main_kl_rounds is None or role != "main":
+            return kl
+        return kl * max(KL_FLOOR, 1.0 - round_index / self.main_kl_rounds)
+
     def train_config(self, seed: int) -> Any:
         """The ``TrainConfig`` of every learner: two cars, one learner, race tracks."""
         from h2h_racing.config import RewardConfig
@@ -300,6 +321,8 @@ class TrainJob:
     """One round of PPO for one learner (runs in a worker process)."""
 
     learner: str
+    role: str
+    """The learner's role (``ROLES``)."""
     folder: str
     """The learner's folder: ``runner.pt`` (rsl-rl state) and ``latest.pt`` (policy file)."""
     config: LeagueConfig
@@ -350,6 +373,7 @@ def train_round(job: TrainJob) -> dict[str, float]:
             load_init(runner, job.config.init)
     if job.config.imitation_coef:
         runner.alg.imitation_coef = job.config.imitation_coef_at(job.round)
+    runner.alg.desired_kl = job.config.desired_kl_at(job.round, job.role)
     start = time.perf_counter()
     tracks = job.config.tracks
     first = tracks.index(job.track)
@@ -517,9 +541,10 @@ class League:
             names = self._opponents(spec, pool, mains, payoff)
             specs = tuple(self._opponent_spec(name) for name in names)
             reset = bool(self._learner_meta(spec.name, "reset", 0.0))
-            jobs.append(TrainJob(learner=spec.name, folder=str(self._latest(spec.name).parent),
-                                 config=cfg, round=round_index, track=track, opponents=specs,
-                                 reset=reset, seed=cfg.seed + 1000 * round_index + k))
+            jobs.append(TrainJob(learner=spec.name, role=spec.role,
+                                 folder=str(self._latest(spec.name).parent), config=cfg,
+                                 round=round_index, track=track, opponents=specs, reset=reset,
+                                 seed=cfg.seed + 1000 * round_index + k))
         clock = time.perf_counter()
         for job, stats in self.backend.map(train_round, jobs):
             name = job.learner

@@ -328,7 +328,6 @@ class RacingVecEnv(VecEnv):
                 reward[copy, car] = function(car, params[car])
         return reward
 
-
     def _reset_drivers(self) -> None:
         """Per-track precompute of the opponent and the expert (racing lines are cached)."""
         for driver in (self.opponent, self.expert):

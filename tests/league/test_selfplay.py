@@ -167,28 +167,38 @@ def test_imitation_term_reaches_the_learners():
         dataclasses.replace(config, imitation_coef=-2.0)
 
 
-def test_imitation_term_fades_over_imitation_rounds(tmp_path):
+def test_imitation_term_and_main_steps_fade_over_their_rounds(tmp_path):
     from h2h_racing.league import selfplay
     from h2h_racing.league.selfplay import TrainJob, train_round
 
     guided = LeagueConfig.from_toml(LEAGUE_DIR / "guided.toml")  # imitation_coef = 2
     assert guided.imitation_coef_at(100) == 2.0  # no imitation_rounds: constant
-    fading = dataclasses.replace(guided, imitation_rounds=4)
+    assert guided.desired_kl_at(100, "main") == 0.01  # no main_kl_rounds: PPOConfig's
+    fading = dataclasses.replace(guided, imitation_rounds=4, main_kl_rounds=4)
     # 2 * (1 - r / 4): 2, 1.5, 1, 0.5, then 0 from round 4 on.
     assert [fading.imitation_coef_at(r) for r in range(6)] == [2.0, 1.5, 1.0, 0.5, 0.0, 0.0]
-    for bad in (0, 2.5, True):
-        with pytest.raises(ValueError, match="imitation_rounds must be an integer >= 1"):
-            dataclasses.replace(guided, imitation_rounds=bad)
-    # A learner's round trains with that round's weight.
+    # 0.01 * max(0.05, 1 - r / 4): 0.01, 0.0075, 0.005, 0.0025, then 0.0005 for the mains;
+    # the exploiters keep 0.01.
+    assert [fading.desired_kl_at(r, "main") for r in range(6)] == pytest.approx(
+        [0.01, 0.0075, 0.005, 0.0025, 0.0005, 0.0005])
+    assert fading.desired_kl_at(5, "main_exploiter") == 0.01
+    for name in ("imitation_rounds", "main_kl_rounds"):
+        for bad in (0, 2.5, True):
+            with pytest.raises(ValueError, match=f"{name} must be an integer >= 1"):
+                dataclasses.replace(guided, **{name: bad})
+    # A learner's round trains with that round's weight and step size.
     smoke = dataclasses.replace(LeagueConfig.from_toml(LEAGUE_DIR / "smoke.toml"),
                                 imitation_driver="racing_line", imitation_coef=2.0,
-                                imitation_rounds=4, tracks=("oval",), iterations_per_round=1)
-    job = TrainJob(learner="fading", folder=str(tmp_path / "fading"), config=smoke, round=2,
-                   track="oval", opponents=("pure_pursuit",) * smoke.num_envs, reset=False,
-                   seed=0)
-    train_round(job)
-    runner = selfplay._RUNNERS.pop("fading")[1]
-    assert runner.alg.imitation_coef == 1.0
+                                imitation_rounds=4, main_kl_rounds=4, tracks=("oval",),
+                                iterations_per_round=1)
+    for role, kl in (("main", 0.005), ("league_exploiter", 0.01)):
+        job = TrainJob(learner="fading", role=role, folder=str(tmp_path / role), config=smoke,
+                       round=2, track="oval", opponents=("pure_pursuit",) * smoke.num_envs,
+                       reset=False, seed=0)
+        train_round(job)
+        runner = selfplay._RUNNERS.pop("fading")[1]
+        assert runner.alg.imitation_coef == 1.0
+        assert runner.alg.desired_kl == pytest.approx(kl)
 
 
 def test_anchor_weighting_favours_the_anchor_the_learner_loses_to(tmp_path):
@@ -234,8 +244,8 @@ def test_tracks_per_round_splits_training_over_the_rotation(tmp_path):
     config = dataclasses.replace(LeagueConfig.from_toml(LEAGUE_DIR / "smoke.toml"),
                                  tracks=("oval", "kidney", "speedway"), iterations_per_round=3,
                                  tracks_per_round=2)
-    job = TrainJob(learner="solo", folder=str(tmp_path / "solo"), config=config, round=1,
-                   track="speedway", opponents=("pure_pursuit",) * config.num_envs,
+    job = TrainJob(learner="solo", role="main", folder=str(tmp_path / "solo"), config=config,
+                   round=1, track="speedway", opponents=("pure_pursuit",) * config.num_envs,
                    reset=False, seed=0)
     stats = train_round(job)
     runner = selfplay._RUNNERS.pop("solo")[1]
