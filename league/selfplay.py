@@ -46,9 +46,9 @@ from h2h_racing.league.store import LeagueStore, Player, file_sha256, player_for
 from h2h_racing.league.tournament import PAIR_ORDERS, Job, make_job, run_job
 
 ROLES = ("main", "main_exploiter", "league_exploiter")
+"""Learner roles (AlphaStar's)."""
 KL_FLOOR = 0.05
 """Share of the target KL left to a main agent after ``LeagueConfig.main_kl_rounds``."""
-"""Learner roles (AlphaStar's)."""
 
 
 @dataclass(frozen=True, kw_only=True)
