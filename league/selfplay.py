@@ -282,9 +282,7 @@ class LeagueConfig:
     def imitation_coef_at(self, round_index: int) -> float:
         """The behaviour-cloning weight in round ``round_index`` (0-based):
         ``imitation_coef * max(0, 1 - round_index / imitation_rounds)``."""
-        if self.imitation_rounds is None:
-            return float(self.imitation_coef)
-        return float(self.imitation_coef) * max(0.0, 1.0 - round_index / self.imitation_rounds)
+        return float(self.imitation_coef) * _fade(round_index, self.imitation_rounds, 0.0)
 
     def desired_kl_at(self, round_index: int, role: str) -> float:
         """The target KL of a learner's PPO steps in round ``round_index`` (0-based): for the
@@ -292,10 +290,8 @@ class LeagueConfig:
         ``desired_kl`` (``PPOConfig``'s)."""
         from h2h_racing.league.train import PPOConfig
 
-        kl = PPOConfig().desired_kl
-        if self.main_kl_rounds is None or role != "main":
-            return kl
-        return kl * max(KL_FLOOR, 1.0 - round_index / self.main_kl_rounds)
+        rounds = self.main_kl_rounds if role == "main" else None
+        return PPOConfig().desired_kl * _fade(round_index, rounds, KL_FLOOR)
 
     def train_config(self, seed: int) -> Any:
         """The ``TrainConfig`` of every learner: two cars, one learner, race tracks."""
@@ -311,6 +307,12 @@ class LeagueConfig:
                            imitation_coef=self.imitation_coef,
                            ppo=PPOConfig(learning_rate=self.learning_rate,
                                          entropy_coef=self.entropy_coef))
+
+
+def _fade(round_index: int, rounds: int | None, floor: float) -> float:
+    """A linear fade over ``rounds`` rounds: ``max(floor, 1 - round_index / rounds)``; 1 for
+    ever without ``rounds``."""
+    return 1.0 if rounds is None else max(floor, 1.0 - round_index / rounds)
 
 
 # ------------------------------------------------------------------ learner jobs (workers)

@@ -403,6 +403,14 @@ class TrainConfig:
             raise ValueError(f"TrainConfig.teacher_options {self.teacher_options!r} do not fit "
                              f"the {name!r} driver: {err}") from None
 
+    def procedural_track(self, rng: np.random.Generator) -> Track:
+        """A random training track drawn from ``rng`` with this run's ``procedural_*``
+        settings (``random_training_track``)."""
+        return random_training_track(rng, self.procedural_varying_share,
+                                     self.procedural_min_radius, self.procedural_length,
+                                     self.procedural_reverse_share, self.procedural_chicanes,
+                                     self.procedural_tight_share)
+
     def env_config(self) -> EnvConfig:
         """The env the learners race in: ``rules`` (DeepRacer's training rules by default: an
         infraction ends the car's episode), one lap per episode (``track`` names the first track; a procedural
@@ -572,10 +580,7 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
         step = min(chunk, iterations - done)
         if procedural:
             if done % config.track_every == 0:
-                env.set_track(random_training_track(
-                    tracks, config.procedural_varying_share, config.procedural_min_radius,
-                    config.procedural_length, config.procedural_reverse_share,
-                    config.procedural_chicanes, config.procedural_tight_share))
+                env.set_track(config.procedural_track(tracks))
             step = min(step, config.track_every - done % config.track_every)
         if eval_every:
             step = min(step, eval_every - done % eval_every)
@@ -622,11 +627,7 @@ def validation_tracks(config: TrainConfig) -> list[Track]:
     the run never trains on, for choosing among its actors without looking at the shipped
     tracks it is judged on."""
     rng = np.random.default_rng(config.seed + 2)
-    return [random_training_track(rng, config.procedural_varying_share,
-                                  config.procedural_min_radius, config.procedural_length,
-                                  config.procedural_reverse_share, config.procedural_chicanes,
-                                  config.procedural_tight_share)
-            for _ in range(config.validation_tracks)]
+    return [config.procedural_track(rng) for _ in range(config.validation_tracks)]
 
 
 def _keep_writer() -> None:
