@@ -12,7 +12,9 @@ its own batched ``RacingVecEnv`` with one learner car and one opponent car per e
    the backend's workers) and saves ``learners/<name>/latest.pt`` and its runner state.
 3. **Evaluation**: each learner races every pool member (and the other learners) in 2-car races
    under race rules, both seat orders on the same seeds; every race is a stored match and
-   updates the payoff table.
+   updates the payoff table. With ``main_restore_margin`` set, a main agent whose record
+   against the anchors falls that far below its best gets its best state back (the exploit
+   step of population-based training, the main's own past as the population).
 4. **Snapshots**: a learner whose worst decayed win rate against the pool exceeds the
    threshold after ``snapshot_min_rounds`` rounds (forced after ``snapshot_max_rounds``) is
    frozen into a new player; the main exploiter then restarts from the initial weights, a
@@ -164,6 +166,16 @@ class LeagueConfig:
     over training (Schulman et al. 2017, Atari). Exploiters keep full steps (they are reset
     and must learn anew). None: constant. In runs 12 to 15 every main was at its best after
     about 40 rounds and worse at the end (league/README.md)."""
+    main_restore_margin: float | None = None
+    """Population-based training's exploit step (Jaderberg et al. 2017) with a main agent's
+    own past as the population. After each round the main's *record* is its worst undecayed
+    win rate against the anchors over the evaluation races of the last ``main_restore_window``
+    rounds. A record above the best so far saves the main's state (``learners/<name>/best/``);
+    a record more than this margin below the best puts that state back, and the next record
+    is judged on a full window of races after it. None: off. In runs 12 to 16
+    (league/README.md) every main was at its best around round 40 and worse at the end."""
+    main_restore_window: int = 7
+    """Rounds of evaluation races in one record (7: one round on each shipped track)."""
     training_rules: str = "training"
     """Rules of the learners' episodes (``TrainConfig.rules``): ``"training"`` ends an episode
     at the first infraction; ``"race"`` gives a time penalty and goes on, as the evaluation
@@ -207,6 +219,18 @@ class LeagueConfig:
                                            and not isinstance(rounds, bool) and rounds >= 1):
                 raise ValueError(f"LeagueConfig.{name} must be an integer >= 1 (or left out "
                                  f"for no fading), got {rounds!r}")
+        if self.main_restore_margin is not None and not (
+                isinstance(self.main_restore_margin, (int, float))
+                and not isinstance(self.main_restore_margin, bool)
+                and 0.0 <= self.main_restore_margin <= 1.0):
+            raise ValueError(f"LeagueConfig.main_restore_margin must be a win-rate margin in "
+                             f"[0, 1] (or left out: no restores), got "
+                             f"{self.main_restore_margin!r}")
+        if not (isinstance(self.main_restore_window, int)
+                and not isinstance(self.main_restore_window, bool)
+                and self.main_restore_window >= 1):
+            raise ValueError(f"LeagueConfig.main_restore_window must be an integer >= 1 "
+                             f"(rounds), got {self.main_restore_window!r}")
         if self.training_rules not in ("training", "race"):
             raise ValueError(f"LeagueConfig.training_rules must be 'training' or 'race', got "
                              f"{self.training_rules!r}")
@@ -336,6 +360,9 @@ class TrainJob:
     reset: bool
     """Start from the initial weights (an exploiter reset) instead of the saved state."""
     seed: int
+    reload: bool = False
+    """Rebuild the learner from its saved state even if this worker holds it in memory (the
+    league has put an earlier state back: ``LeagueConfig.main_restore_margin``)."""
 
 
 _RUNNERS: dict[str, tuple[int, Any]] = {}
@@ -360,7 +387,8 @@ def train_round(job: TrainJob) -> dict[str, float]:
     config = dataclasses.replace(config, track=job.track)
     cached = _RUNNERS.get(job.learner)
     opponent = PoolOpponent(job.opponents, seed=job.seed)
-    if cached is not None and cached[0] == job.round - 1 and not job.reset:
+    if (cached is not None and cached[0] == job.round - 1 and not job.reset
+            and not job.reload):
         runner = cached[1]  # the training loop below moves it to the round's tracks
         runner.env.set_opponent(opponent)
     else:
@@ -402,6 +430,14 @@ def _make_env(config: Any, opponent: Any) -> Any:
     return RacingVecEnv(config.env_config(), num_envs=config.num_envs, learners=1,
                         opponent=opponent, observations=config.observations, seed=config.seed,
                         expert=config.expert())
+
+
+def _round_of(key: str, context: str) -> int:
+    """The round of an evaluation match key ``<context>:round=<r>:...`` (``League._jobs``)."""
+    head = f"{context}:round="
+    if not key.startswith(head):
+        raise ValueError(f"match key {key!r} is not a round's evaluation key ({head}<r>:...)")
+    return int(key[len(head):].split(":", 1)[0])
 
 
 def _atomic(write: Any, path: Path) -> None:
@@ -546,13 +582,15 @@ class League:
             jobs.append(TrainJob(learner=spec.name, role=spec.role,
                                  folder=str(self._latest(spec.name).parent), config=cfg,
                                  round=round_index, track=track, opponents=specs, reset=reset,
-                                 seed=cfg.seed + 1000 * round_index + k))
+                                 seed=cfg.seed + 1000 * round_index + k,
+                                 reload=bool(self._learner_meta(spec.name, "reload", 0.0))))
         clock = time.perf_counter()
         for job, stats in self.backend.map(train_round, jobs):
             name = job.learner
             self.store.set_metas({
                 f"{name}.steps": str(int(self._learner_meta(name, "steps") + stats["steps"])),
                 f"{name}.reset": "0",
+                f"{name}.reload": "0",
                 f"{name}.trained_round": str(round_index),
                 f"{name}.rounds_since_snapshot":
                     str(int(self._learner_meta(name, "rounds_since_snapshot")) + 1)})
@@ -560,6 +598,9 @@ class League:
         clock = time.perf_counter()
         self._evaluate(round_index, track)
         self.timings["evaluate"] = time.perf_counter() - clock
+        if cfg.main_restore_margin is not None:
+            for name in mains:
+                self._keep_best(name, round_index)
         clock = time.perf_counter()
         payoff = self._payoff()
         for spec in cfg.learners:
@@ -606,6 +647,56 @@ class League:
         pairs = [(learner, other) for learner in learners for other in opponents]
         pairs += [(a, b) for i, a in enumerate(learners) for b in learners[i + 1:]]
         self._play(self._jobs("eval", round_index, pairs, track, cfg.eval_races))
+
+    def record(self, learner: str, round_index: int) -> float | None:
+        """``learner``'s worst win rate against the anchors in the evaluation races of rounds
+        ``round_index - main_restore_window + 1`` to ``round_index`` (each race counted once,
+        a tie as half a win); None if it did not race every anchor in them."""
+        from h2h_racing.league.pfsp import Payoff
+
+        first = round_index - self.config.main_restore_window + 1
+        context = self._context("eval")
+        races = [m.places for m in self.store.matches(context=context)
+                 if learner in m.places and first <= _round_of(m.key, context) <= round_index]
+        payoff = Payoff.from_races(races, decay=1.0)
+        anchors = list(self.config.anchors)
+        if min(payoff.games(learner, a) for a in anchors) == 0:
+            return None
+        return float(payoff.win_rates(learner, anchors).min())
+
+    def _keep_best(self, learner: str, round_index: int) -> None:
+        """Save ``learner``'s state when its record is the best so far; put the best state
+        back when its record is more than ``main_restore_margin`` below the best
+        (``LeagueConfig.main_restore_margin``). Files first, then the store: a run killed in
+        between repeats the same copies when it resumes the round."""
+        cfg = self.config
+        window = cfg.main_restore_window
+        if round_index < self._learner_meta(learner, "judge_from", window - 1):
+            return
+        record = self.record(learner, round_index)
+        if record is None:
+            return
+        folder = self._latest(learner).parent
+        best = self._learner_meta(learner, "best_record", -1.0)
+        files = ("latest.pt", "runner.pt")
+        if record > best:
+            (folder / "best").mkdir(exist_ok=True)
+            for file in files:
+                _atomic(lambda p, f=file: shutil.copyfile(folder / f, p), folder / "best" / file)
+            self.store.set_metas({f"{learner}.best_record": repr(record),
+                                  f"{learner}.best_round": str(round_index)})
+        elif record < best - cfg.main_restore_margin:
+            for file in files:
+                _atomic(lambda p, f=file: shutil.copyfile(folder / "best" / f, p), folder / file)
+            restores = int(self._learner_meta(learner, "restores")) + 1
+            self.store.set_metas({f"{learner}.reload": "1",
+                                  f"{learner}.judge_from": str(round_index + window),
+                                  f"{learner}.restores": str(restores)})
+            best_round = int(self._learner_meta(learner, "best_round"))
+            print(f"[league {cfg.name}] round {round_index + 1}: {learner}'s record against "
+                  f"the anchors {record:.2f} < best {best:.2f} - {cfg.main_restore_margin}: "
+                  f"restored its state after round {best_round + 1}",
+                  file=self.out, flush=True)
 
     def _play(self, jobs: list[Job]) -> None:
         for _job_done, records in self.backend.map(run_job, jobs):

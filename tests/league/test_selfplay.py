@@ -256,3 +256,113 @@ def test_tracks_per_round_splits_training_over_the_rotation(tmp_path):
     assert stats["steps"] == 3 * config.num_envs * config.num_steps_per_env
     with pytest.raises(ValueError, match="tracks_per_round must be in"):
         dataclasses.replace(config, tracks_per_round=4)
+
+
+def _eval_race(round_index, n, main_place, anchor, anchor_place, player="main"):
+    from h2h_racing.league.store import CarResult, MatchRecord
+
+    context = "league:smoke:eval"
+    cars = (CarResult(seat=0, player=player, position=main_place, finished=True, laps=1),
+            CarResult(seat=1, player=anchor, position=anchor_place, finished=True, laps=1))
+    return MatchRecord(key=f"{context}:round={round_index}:oval:{player},{anchor}:n={n}",
+                       track="oval", race_type="head_to_head", laps=1, seed=n, cars=cars,
+                       context=context)
+
+
+def test_main_state_is_kept_at_its_best_and_put_back_when_its_record_falls(tmp_path):
+    config = dataclasses.replace(LeagueConfig.from_toml(LEAGUE_DIR / "smoke.toml"),
+                                 main_restore_margin=0.2, main_restore_window=2)
+    out = io.StringIO()
+    league = League(config, tmp_path, out=out)
+    folder = tmp_path / "learners" / "main"
+    meta = league.store.meta
+
+    def state(tag):
+        for file in ("latest.pt", "runner.pt"):
+            (folder / file).write_text(f"{tag} {file}")
+
+    def races(round_index, results):
+        for n, (anchor, main_place, anchor_place) in enumerate(results):
+            league.store.record_match(_eval_race(round_index, n, main_place, anchor,
+                                                 anchor_place))
+
+    try:
+        state("A")
+        races(0, [("racing_line", 1, 2), ("pure_pursuit", 1, 2)])
+        # An exploiter's race is not the main's record.
+        league.store.record_match(_eval_race(0, 9, 2, "pure_pursuit", 1, "main_exploiter"))
+        league._keep_best("main", 0)  # a window of 2 rounds needs round 1
+        assert "main.best_record" not in meta() and not (folder / "best").exists()
+        races(1, [("racing_line", 1, 2), ("racing_line", 1, 2), ("pure_pursuit", 1, 2),
+                  ("pure_pursuit", 1, 1)])
+        # Rounds 0-1: racing_line 3 wins of 3 = 1; pure_pursuit 2 wins + a tie of 3 =
+        # 2.5 / 3 = 0.833 -> record 0.833, the first: saved.
+        assert league.record("main", 1) == pytest.approx(2.5 / 3)
+        league._keep_best("main", 1)
+        assert float(meta()["main.best_record"]) == pytest.approx(2.5 / 3)
+        assert (folder / "best" / "latest.pt").read_text() == "A latest.pt"
+        state("B")
+        races(2, [("racing_line", 2, 1), ("racing_line", 2, 1), ("pure_pursuit", 2, 1),
+                  ("pure_pursuit", 2, 1)])
+        # Rounds 1-2: racing_line 2 of 4 = 0.5; pure_pursuit 1.5 of 4 = 0.375 < 0.833 - 0.2:
+        # state A is put back, the learner is rebuilt from it, the next record is judged on
+        # rounds 3-4.
+        league._keep_best("main", 2)
+        assert (folder / "latest.pt").read_text() == "A latest.pt"
+        assert (folder / "runner.pt").read_text() == "A runner.pt"
+        assert meta()["main.reload"] == "1" and meta()["main.restores"] == "1"
+        assert meta()["main.judge_from"] == "4"
+        assert "restored its state after round 2" in out.getvalue()
+        state("C")
+        races(3, [("racing_line", 2, 1), ("pure_pursuit", 2, 1)])
+        league._keep_best("main", 3)  # rounds 2-3 mix the old state's races: not judged
+        assert (folder / "latest.pt").read_text() == "C latest.pt"
+        races(4, [("racing_line", 1, 2), ("racing_line", 1, 2), ("pure_pursuit", 1, 2),
+                  ("pure_pursuit", 1, 2), ("pure_pursuit", 1, 2)])
+        # Rounds 3-4: racing_line 2 of 3, pure_pursuit 3 of 4 -> 0.667: between the best
+        # and the best minus the margin, nothing happens.
+        league._keep_best("main", 4)
+        assert (folder / "best" / "latest.pt").read_text() == "A latest.pt"
+        assert meta()["main.restores"] == "1"
+        races(5, [("racing_line", 1, 2), ("racing_line", 1, 2), ("racing_line", 1, 2),
+                  ("pure_pursuit", 1, 2)])
+        # Rounds 4-5: racing_line 5 of 5, pure_pursuit 4 of 4 -> 1 > 0.833: state C is best.
+        league._keep_best("main", 5)
+        assert (folder / "best" / "runner.pt").read_text() == "C runner.pt"
+        assert meta()["main.best_round"] == "5"
+    finally:
+        league.close()
+    with pytest.raises(ValueError, match="main_restore_margin must be a win-rate margin"):
+        dataclasses.replace(config, main_restore_margin=1.5)
+    with pytest.raises(ValueError, match="main_restore_window must be an integer >= 1"):
+        dataclasses.replace(config, main_restore_window=0)
+
+
+def test_a_reload_rebuilds_the_learner_from_its_saved_state(tmp_path):
+    import shutil
+
+    from h2h_racing.league import selfplay
+    from h2h_racing.league.selfplay import TrainJob, train_round
+
+    config = dataclasses.replace(LeagueConfig.from_toml(LEAGUE_DIR / "smoke.toml"),
+                                 iterations_per_round=2)
+    folder = tmp_path / "kept"
+    job = TrainJob(learner="kept", role="main", folder=str(folder), config=config, round=0,
+                   track="oval", opponents=("pure_pursuit",) * config.num_envs, reset=False,
+                   seed=0)
+    try:
+        train_round(job)
+        first = selfplay._RUNNERS["kept"][1]
+        shutil.copyfile(folder / "runner.pt", tmp_path / "round0.pt")
+        train_round(dataclasses.replace(job, round=1))
+        assert selfplay._RUNNERS["kept"][1] is first  # continued in memory
+        after_two = first.current_learning_iteration
+        shutil.copyfile(tmp_path / "round0.pt", folder / "runner.pt")  # as a restore does
+        train_round(dataclasses.replace(job, round=2, reload=True))
+        runner = selfplay._RUNNERS["kept"][1]
+        # Rebuilt from round 0's state, then one round: the iteration count of two rounds,
+        # not three.
+        assert runner is not first
+        assert runner.current_learning_iteration == after_two
+    finally:
+        selfplay._RUNNERS.pop("kept", None)
