@@ -338,6 +338,43 @@ def test_main_state_is_kept_at_its_best_and_put_back_when_its_record_falls(tmp_p
         dataclasses.replace(config, main_restore_window=0)
 
 
+def test_a_run_finishing_on_best_hands_out_the_mains_best_record_state(tmp_path):
+    config = dataclasses.replace(LeagueConfig.from_toml(LEAGUE_DIR / "smoke.toml"),
+                                 main_restore_margin=0.2, main_restore_window=2,
+                                 main_finish_on_best=True)
+    out = io.StringIO()
+    league = League(config, tmp_path, out=out)
+    folder = tmp_path / "learners" / "main"
+    (folder / "best").mkdir(parents=True)
+    for file in ("latest.pt", "runner.pt"):
+        (folder / "best" / file).write_text(f"A {file}")
+        (folder / file).write_text(f"C {file}")
+    try:
+        # Five rounds done (0-4), more than smoke.toml's max_rounds = 2: run() plays none and
+        # only finishes.
+        league.store.set_metas({"round": "5", "main.best_round": "4",
+                                "main.best_record": "0.8"})
+        league.run()  # the last round's state is the best: kept
+        assert (folder / "latest.pt").read_text() == "C latest.pt"
+        assert out.getvalue() == ""
+        league.store.set_meta("main.best_round", "3")
+        league.run()
+        assert (folder / "latest.pt").read_text() == "A latest.pt"
+        assert (folder / "runner.pt").read_text() == "A runner.pt"
+        meta = league.store.meta()
+        # A continued run rebuilds the main from A; its next record covers rounds 5 and 6
+        # (window 2 after round 4: 4 + 2 = 6).
+        assert meta["main.reload"] == "1" and meta["main.judge_from"] == "6"
+        assert "main" in out.getvalue() and "after round 4, not round 5" in out.getvalue()
+        assert "main_exploiter" not in out.getvalue()
+    finally:
+        league.close()
+    with pytest.raises(ValueError, match="main_finish_on_best needs main_restore_margin"):
+        dataclasses.replace(config, main_restore_margin=None)
+    with pytest.raises(ValueError, match="main_finish_on_best must be true or false"):
+        dataclasses.replace(config, main_finish_on_best="yes")
+
+
 def test_a_reload_rebuilds_the_learner_from_its_saved_state(tmp_path):
     import shutil
 
