@@ -14,7 +14,8 @@ its own batched ``RacingVecEnv`` with one learner car and one opponent car per e
    under race rules, both seat orders on the same seeds; every race is a stored match and
    updates the payoff table. With ``main_restore_margin`` set, a main agent whose record
    against the anchors falls that far below its best gets its best state back (the exploit
-   step of population-based training, the main's own past as the population).
+   step of population-based training, the main's own past as the population); with
+   ``main_finish_on_best`` the run also ends with each main at its best-record state.
 4. **Snapshots**: a learner whose worst decayed win rate against the pool exceeds the
    threshold after ``snapshot_min_rounds`` rounds (forced after ``snapshot_max_rounds``) is
    frozen into a new player; the main exploiter then restarts from the initial weights, a
