@@ -451,6 +451,14 @@ _STATE_FILES = ("latest.pt", "runner.pt")
 """A learner's saved state: its policy checkpoint and its runner (optimiser, std bound)."""
 
 
+def _copy_state(source: Path, target: Path) -> None:
+    """Copy a learner's saved state (``_STATE_FILES``) from folder ``source`` to ``target``,
+    each file atomically."""
+    target.mkdir(exist_ok=True)
+    for file in _STATE_FILES:
+        _atomic(lambda p, f=file: shutil.copyfile(source / f, p), target / file)
+
+
 def _round_of(key: str, context: str) -> int:
     """The round of an evaluation match key ``<context>:round=<r>:...`` (``League._jobs``)."""
     head = f"{context}:round="
@@ -702,9 +710,7 @@ class League:
         folder = self._latest(learner).parent
         best = self._learner_meta(learner, "best_record", -1.0)
         if record > best:
-            (folder / "best").mkdir(exist_ok=True)
-            for file in _STATE_FILES:
-                _atomic(lambda p, f=file: shutil.copyfile(folder / f, p), folder / "best" / file)
+            _copy_state(folder, folder / "best")
             self.store.set_metas({f"{learner}.best_record": repr(record),
                                   f"{learner}.best_round": str(round_index)})
         elif record < best - cfg.main_restore_margin:
@@ -722,8 +728,7 @@ class League:
         store ``metas`` with the reload: the next round rebuilds the learner from there, and
         its next record is judged on a full window of races after it."""
         folder = self._latest(learner).parent
-        for file in _STATE_FILES:
-            _atomic(lambda p, f=file: shutil.copyfile(folder / "best" / f, p), folder / file)
+        _copy_state(folder / "best", folder)
         self.store.set_metas({
             **(metas or {}), f"{learner}.reload": "1",
             f"{learner}.judge_from": str(round_index + self.config.main_restore_window)})
