@@ -18,6 +18,8 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, TypeVar
 
+from h2h_racing.lifeline import die_with_parent, started_from_main_thread
+
 J = TypeVar("J")
 R = TypeVar("R")
 
@@ -40,7 +42,9 @@ class LocalBackend:
     """Run jobs in ``workers`` local processes.
 
     Workers are started with ``spawn`` (a fresh interpreter: no inherited torch/OpenMP
-    threads, which ``fork`` can deadlock on).
+    threads, which ``fork`` can deadlock on). They die with this process, even a ``kill -9``'d
+    one (``h2h_racing.lifeline``), and with them multiprocessing's resource tracker, which
+    exits once every process holding its pipe is gone.
 
     Args:
         workers: Worker processes; None uses every core.
@@ -64,8 +68,12 @@ class LocalBackend:
         attempts = [0] * len(jobs)
         while pending:
             if self._pool is None:
+                # Workers are spawned by the thread that submits; the death signal is tied
+                # to that thread, so it is only armed when that is the main thread.
                 self._pool = cf.ProcessPoolExecutor(
-                    self.workers, mp_context=multiprocessing.get_context("spawn"))
+                    self.workers, mp_context=multiprocessing.get_context("spawn"),
+                    initializer=die_with_parent,
+                    initargs=(os.getpid(), started_from_main_thread()))
             futures = {self._pool.submit(fn, jobs[i]): i for i in pending}
             broken = False
             for future in cf.as_completed(futures):
