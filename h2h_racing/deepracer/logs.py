@@ -28,8 +28,18 @@ wall_clock``. Their values follow simapp's ``rollout_agent_ctrl.py``:
 - ``tstamp`` is simulated time [s] on a clock that runs on across the worker's episodes, as
   Gazebo's does; ``wall_clock`` is the host's Unix time [s];
 - every episode starts with DeepRacer's ``prepare`` row: the car where it starts, before its
-  first action, with ``steps`` 0 and reward 0 (so ``steps`` of every later row equals the
-  ``params["steps"]`` the reward function saw);
+  first action, with reward 0 and ``steps`` 1.0; the row of the first action has ``steps`` 2.0,
+  as in DeepRacer-for-Cloud's simtraces (deepracer-utils' sample logs). In races, where every
+  lap is a trial, ``steps`` runs on across the trials of the stream, as in DRfC's continuous
+  evaluations (the trial after a row with ``steps`` 222.0 starts at 223.0, with no new
+  ``prepare`` row);
+- ``steps`` and the reward function's ``params["steps"]``: DeepRacer counts its ``prepare``
+  step, does not call the reward function on it and logs ``params["steps"]`` unchanged, so
+  its reward first sees 2.0. This env calls the reward function on every action from the
+  first one, which sees ``params["steps"]`` 1.0 (``h2h_racing.deepracer.params``; Capstone-style
+  functions need it). A training row therefore has ``steps = params["steps"] + 1``; replaying
+  a reward function over our simtrace (deepracer-utils' ``NewRewardUtils``) sees ``steps``
+  one higher than our env gave it;
 - ``episode_status`` is ``prepare``, ``in_progress``, ``lap_complete``, ``off_track``,
   ``crashed`` (an at-fault contact that counts as an infraction), ``reversed``,
   ``immobilized``, ``time_up`` or ``pause`` (frozen by a race penalty; ``pause_duration`` then
@@ -235,6 +245,8 @@ class SimtraceWriter:
         sel = np.ix_(self.envs, self.cars)
         self._open(mask, core.start_distance[sel] / self.track.length % 1.0,
                    core.crashes[sel])
+        # DRfC numbers the prepare row 1.0 (its first step, on which no action is taken).
+        self._steps[mask] = 1
         position, yaw = core.position[sel], core.yaw[sel]
         zeros = np.zeros(self._active.shape)
         status = np.where(mask, "prepare", "")
@@ -329,7 +341,6 @@ class SimtraceWriter:
               crashes: npt.NDArray[Any]) -> None:
         self._active |= mask
         self._episode += mask
-        self._steps[mask] = 0
         self._start[mask] = start_ndist[mask]
         self._prev_progress[mask] = 0.0
         self._reward[mask] = 0.0

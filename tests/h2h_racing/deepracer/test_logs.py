@@ -80,13 +80,14 @@ class TestStraightDrive:
         # The prepare row and 20 steps.
         assert len(rows) == 21
         first, last = rows[0], rows[-1]
-        assert first["episode_status"] == "prepare" and float(first["steps"]) == 0.0
+        assert first["episode_status"] == "prepare" and float(first["steps"]) == 1.0
         assert float(first["reward"]) == 0.0 and float(first["tstamp"]) == 0.0
         # The car starts at (1, 0) heading +x: the model point is 0.14 m ahead, which is
         # 100 * 0.14 / 40 = 0.35 % of the 40 m lap from the start.
         assert float(first["X"]) == pytest.approx(1.14, abs=1e-9)
         assert float(first["progress"]) == pytest.approx(0.35, abs=1e-9)
-        assert [float(r["steps"]) for r in rows] == [float(k) for k in range(21)]
+        # DRfC's numbering: the prepare row is step 1.0, the first action's row 2.0.
+        assert [float(r["steps"]) for r in rows] == [float(k) for k in range(1, 22)]
         assert [float(r["reward"]) for r in rows[1:]] == pytest.approx(rewards)
         # Steps are 1/15 s: the 20th row is at 20/15 s.
         assert float(last["tstamp"]) == pytest.approx(20 / 15, abs=1e-9)
@@ -167,6 +168,10 @@ class TestEpisodes:
         assert {r["episode"] for r in it1} == {"2"}
         ends = [r for r in it0 + it1 if r["done"] == "True"]
         assert [r["episode_status"] for r in ends] == ["lap_complete"] * 3
+        # Every training episode restarts its numbering at the prepare row's 1.0.
+        for episode in ("0", "1", "2"):
+            steps = [float(r["steps"]) for r in it0 + it1 if r["episode"] == episode]
+            assert steps == [float(k) for k in range(1, len(steps) + 1)]
         assert [float(r["progress"]) for r in ends] == [100.0] * 3
         # The clock runs on across episodes: episode 2 ends at the sum of the three durations.
         assert float(ends[-1]["tstamp"]) == pytest.approx(sum(durations), abs=1e-9)
@@ -189,6 +194,11 @@ class TestEpisodes:
             ends = [r for r in rows if r["done"] == "True"]
             assert [r["episode_status"] for r in ends] == ["lap_complete"] * 2
             assert [r["episode"] for r in ends] == ["0", "1"]
+            # As in DRfC's continuous evaluations, steps run on across the trials: one
+            # prepare row (1.0) at the start, then 2.0, 3.0, ... through both laps.
+            assert [r["episode_status"] for r in rows].count("prepare") == 1
+            assert [float(r["steps"]) for r in rows] == [float(k)
+                                                         for k in range(1, len(rows) + 1)]
             (metrics_path,) = (tmp_path / name / "metrics").glob("EvaluationMetrics-*.json")
             metrics = json.loads(metrics_path.read_text())["metrics"]
             assert [m["trial"] for m in metrics] == [1, 2]
@@ -290,3 +300,58 @@ class TestDeepracerUtils:
             row = next(r for r in result.rows if str(Path(folder).name) == r["agent"])
             assert agg["time"].sum() == pytest.approx(row["total_time"], abs=DT + 1e-9)
 
+
+
+# (episode, steps, episode_status) of rows of deepracer-utils' own DRfC sample simtraces
+# (aws-deepracer-community/deepracer-utils, tests/deepracer/logs/sample-drfc-1-logs/),
+# transcribed: the first two rows of episodes 0 and 1 of training-simtrace/0-iteration.csv,
+# and the rows around the end of the first lap of the continuous evaluation
+# evaluation-20220709200242/evaluation-simtrace/0-iteration.csv.
+DRFC_TRAINING_ROWS = [(0, 1.0, "prepare"), (0, 2.0, "in_progress"),
+                      (1, 1.0, "prepare"), (1, 2.0, "in_progress")]
+DRFC_EVALUATION_ROWS = [(0, 1.0, "prepare"), (0, 2.0, "in_progress"),
+                        (0, 222.0, "in_progress"), (1, 223.0, "in_progress")]
+
+
+class TestDrfcStepNumbering:
+    """``steps`` is numbered as in the DRfC simtraces deepracer-utils ships as samples."""
+
+    def test_training_episodes_number_like_drfc(self, tmp_path: Path) -> None:
+        env = h2h_racing.parallel_env(track=circle_track(), num_cars=1,
+                                      race_type="time_trial", rules="training")
+        writer = SimtraceWriter(tmp_path, env.config, env.track)
+        for episode in range(2):
+            env.reset(seed=episode)
+            writer.start(env.core)
+            for _ in range(5):
+                racing = env.core.racing
+                env.step({"car_0": np.array([0.0, 0.0], dtype=np.float32)})
+                writer.log_step(env.core, env.last_events, racing)
+            # Cut the episode short: the next start() ends it.
+        writer.close()
+        _, rows = read_rows(tmp_path / "car_0" / "training-simtrace" / "0-iteration.csv")
+        ours = [(int(r["episode"]), float(r["steps"]), r["episode_status"]) for r in rows]
+        firsts = [row for k, row in enumerate(ours) if k == 0 or row[0] != ours[k - 1][0]]
+        seconds = [ours[ours.index(f) + 1] for f in firsts]
+        drfc = sorted(DRFC_TRAINING_ROWS)
+        assert sorted(firsts + seconds) == drfc
+
+    def test_race_trials_number_like_a_drfc_continuous_evaluation(self, tmp_path: Path
+                                                                    ) -> None:
+        run_race("oval", ["pure_pursuit"], race_type="time_trial", laps=2, seed=0,
+                 simtrace=tmp_path)
+        (csv_path,) = (tmp_path / "car_0").glob("evaluation-*/evaluation-simtrace/"
+                                                "0-iteration.csv")
+        _, rows = read_rows(csv_path)
+        ours = [(int(r["episode"]), float(r["steps"]), r["episode_status"]) for r in rows]
+        # The first two rows, and the last row of trial 0 with the first of trial 1.
+        turn = next(k for k, row in enumerate(ours) if row[0] == 1)
+        picked = [ours[0], ours[1], ours[turn - 1], ours[turn]]
+        shape = [(e, s if k < 2 else s - picked[2][1], st) for k, (e, s, st) in enumerate(picked)]
+        drfc = [(e, s if k < 2 else s - DRFC_EVALUATION_ROWS[2][1], st)
+                for k, (e, s, st) in enumerate(DRFC_EVALUATION_ROWS)]
+        # The lap rows differ only in status: ours marks the lap (lap_complete, as the
+        # newer simapp does), the 2022 sample leaves it in_progress at progress 100.
+        assert [row[:2] for row in shape] == [row[:2] for row in drfc]
+        assert [row[2] for row in shape][:2] == [row[2] for row in drfc][:2]
+        assert shape[3][2] == drfc[3][2] == "in_progress"
