@@ -190,7 +190,7 @@ class TestScriptedTeacher:
         with pytest.raises(ValueError, match="grip_factor must be in"):
             dataclasses.replace(self.CONFIG, teacher_options={"grip_factor": 1.5})
         with pytest.raises(ValueError, match="are arguments of a scripted teacher"):
-            dataclasses.replace(STUDENT_CONFIG, teacher="ppo_speedway",
+            dataclasses.replace(STUDENT_CONFIG, teacher="ppo_generalist",
                                 teacher_options={"margin": 0.2})
 
     def test_teacher_refuses_other_groups(self) -> None:

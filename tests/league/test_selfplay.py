@@ -14,10 +14,13 @@ from h2h_racing.league.vec_env import PoolOpponent
 from h2h_racing.policies import make_driver, race_core
 
 LEAGUE_DIR = Path(__file__).resolve().parents[2] / "league"
+# The recorded runs' configs (not shipped); they still load, so each run can be repeated.
+EXPERIMENTS_DIR = Path(__file__).resolve().parents[2] / "experiments" / "league"
 
 
-@pytest.mark.parametrize("path", sorted(LEAGUE_DIR.glob("*.toml")), ids=lambda p: p.name)
-def test_shipped_league_configs_load(path):
+@pytest.mark.parametrize("path", sorted(LEAGUE_DIR.glob("*.toml")) + sorted(
+    EXPERIMENTS_DIR.glob("*.toml")), ids=lambda p: f"{p.parent.name}/{p.name}")
+def test_league_configs_load(path):
     config = LeagueConfig.from_toml(path)
     assert any(s.role == "main" for s in config.learners)
 
@@ -131,15 +134,15 @@ def test_anchor_share_and_training_rules(tmp_path):
 
 
 def test_max_std_reaches_the_learners(tmp_path):
-    config = LeagueConfig.from_toml(LEAGUE_DIR / "bounded.toml")
+    config = LeagueConfig.from_toml(EXPERIMENTS_DIR / "bounded.toml")
     assert config.max_std == 0.5 and config.train_config(seed=0).max_std == 0.5
     # The run configs recorded before the bound existed keep their unbounded std.
-    assert LeagueConfig.from_toml(LEAGUE_DIR / "anchored.toml").max_std == float("inf")
+    assert LeagueConfig.from_toml(EXPERIMENTS_DIR / "anchored.toml").max_std == float("inf")
     with pytest.raises(ValueError, match="max_std must be a number > 0"):
         dataclasses.replace(config, max_std=0.0)
-    # No entropy bonus is allowed (league/low_noise.toml); a negative one is refused here,
-    # before any learner starts.
-    assert LeagueConfig.from_toml(LEAGUE_DIR / "low_noise.toml").train_config(
+    # No entropy bonus is allowed (experiments/league/low_noise.toml); a negative one is
+    # refused here, before any learner starts.
+    assert LeagueConfig.from_toml(EXPERIMENTS_DIR / "low_noise.toml").train_config(
         seed=0).ppo.entropy_coef == 0.0
     with pytest.raises(ValueError, match="entropy_coef must be a number >= 0"):
         dataclasses.replace(config, entropy_coef=-0.1)
@@ -151,7 +154,7 @@ def test_imitation_term_reaches_the_learners():
     from h2h_racing.league.selfplay import _make_env
     from h2h_racing.league.vec_env import PoolOpponent
 
-    config = LeagueConfig.from_toml(LEAGUE_DIR / "guided.toml")
+    config = LeagueConfig.from_toml(EXPERIMENTS_DIR / "guided.toml")
     train_config = config.train_config(seed=0)
     assert (train_config.imitation_driver, train_config.imitation_coef) == ("racing_line", 2.0)
     assert train_config.rsl_rl_dict()["algorithm"]["class_name"].endswith(":ImitationPPO")
@@ -171,7 +174,7 @@ def test_imitation_term_and_main_steps_fade_over_their_rounds(tmp_path):
     from h2h_racing.league import selfplay
     from h2h_racing.league.selfplay import TrainJob, train_round
 
-    guided = LeagueConfig.from_toml(LEAGUE_DIR / "guided.toml")  # imitation_coef = 2
+    guided = LeagueConfig.from_toml(EXPERIMENTS_DIR / "guided.toml")  # imitation_coef = 2
     assert guided.imitation_coef_at(100) == 2.0  # no imitation_rounds: constant
     assert guided.desired_kl_at(100, "main") == 0.01  # no main_kl_rounds: PPOConfig's
     fading = dataclasses.replace(guided, imitation_rounds=4, main_kl_rounds=4)

@@ -155,7 +155,7 @@ def test_other_files_are_refused(tmp_path):
 
 def test_player_for(tmp_path):
     assert player_for("racing_line").kind == "scripted"
-    shipped = player_for("ppo_speedway")
+    shipped = player_for("ppo_generalist")
     assert shipped.kind == "policy" and len(shipped.checkpoint_sha256) == 64
     policy = tmp_path / "myrun" / "policy.pt"
     policy.parent.mkdir()
