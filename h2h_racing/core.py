@@ -36,6 +36,7 @@ from h2h_racing import bots, race, spawn
 from h2h_racing.config import EnvConfig
 from h2h_racing.dynamics import SingleTrackModel
 from h2h_racing.physics import PhysicsWorld
+from h2h_racing.replacement import REPLACE_GAP, footprint_radius, place_kernel
 from h2h_racing.track import Track
 from h2h_racing.track_lookup import TrackLookup
 
@@ -48,8 +49,6 @@ ENV_GAP = 30.0
 PARK_MARGIN = 1.0
 """Parked cars wait this far beyond the track's bounding box [m] (inside the projection
 grid's margin, so projecting them stays cheap)."""
-REPLACE_CLEARANCE = 0.45
-"""A re-placed car needs this much distance to every other body's centre [m]."""
 
 
 @dataclass
@@ -709,7 +708,7 @@ class RaceCore:
             newly_done = self.done & ~self._parked
             if replaced.any() or newly_done.any():
                 if replaced.any():
-                    self._replace(replaced)
+                    replaced = self._replace(replaced)
                 if newly_done.any():
                     self._park_cars(newly_done)
                 self._sync_physics()
@@ -784,9 +783,14 @@ class RaceCore:
             self.done |= finished
         return finished
 
-    def _replace(self, mask: BoolArray) -> None:
-        """Put frozen cars back on the nearest lane at their re-placement distance."""
-        track = self.track
+    def _replace(self, mask: BoolArray) -> BoolArray:
+        """Put frozen cars back on the nearest lane at their re-placement distance, on the
+        first candidate spot clear of every other body (``h2h_racing.replacement``).
+
+        A car with no clear spot stays frozen where it is for one more step (the clock runs)
+        and is tried again then. Returns the cars placed, (E, N).
+        """
+        track, cfg = self.track, self.config
         env_idx, car_idx = np.nonzero(mask)
         target = self.replace_distance[env_idx, car_idx]
         lane = np.where(self.d[env_idx, car_idx] >= 0.0, 1.0, -1.0)
@@ -794,30 +798,20 @@ class RaceCore:
         cand_s = np.mod(cand_dist, track.length)
         cand_d = spawn.lane_offset(track, cand_s, cand_lane)
         cand_pos = track.point_at(cand_s, cand_d)
-        # Distances to every other car of the same env copy and to its obstacles.
-        others = self.position[env_idx]
-        self_mask = np.arange(self.num_cars)[None, :] == car_idx[:, None]
-        gaps = np.linalg.norm(cand_pos[:, :, None, :] - others[:, None, :, :], axis=-1)
-        gaps = np.where(self_mask[:, None, :] | self.done[env_idx][:, None, :], np.inf, gaps)
-        clearance = gaps.min(axis=2)
-        if self.num_obstacles:
-            obstacles = self.obstacle_position[env_idx]
-            ogaps = np.linalg.norm(cand_pos[:, :, None, :] - obstacles[:, None, :, :], axis=-1)
-            clearance = np.minimum(clearance, ogaps.min(axis=2) - 0.25)
-        if self.num_bots:
-            # Bots are cars: the same clearance, measured where they are now.
-            bot_pos = self.bot_position[env_idx]
-            bgaps = np.linalg.norm(cand_pos[:, :, None, :] - bot_pos[:, None, :, :], axis=-1)
-            clearance = np.minimum(clearance, bgaps.min(axis=2))
-        ok = clearance > REPLACE_CLEARANCE
-        choice = np.where(ok.any(axis=1), np.argmax(ok, axis=1), ok.shape[1] - 1)
-        rows = np.arange(len(env_idx))
-        s = cand_s[rows, choice]
-        d = cand_d[rows, choice]
-        self.position[env_idx, car_idx] = cand_pos[rows, choice]
-        self.yaw[env_idx, car_idx] = track.heading_at(s)
-        self.s[env_idx, car_idx] = s
-        self.d[env_idx, car_idx] = d
+        choice = np.empty(len(env_idx), dtype=np.int64)
+        place_kernel(env_idx, car_idx, cand_pos, track.heading_at(cand_s), self.position,
+                     self.yaw, self.obstacle_position, self.bot_position,
+                     footprint_radius(cfg.car.length, cfg.car.width),
+                     footprint_radius(cfg.obstacle_length, cfg.obstacle_width), REPLACE_GAP,
+                     choice)
+        ok = choice >= 0
+        if not ok.all():
+            wait_env, wait_car = env_idx[~ok], car_idx[~ok]
+            self.frozen_until[wait_env, wait_car] = self.time[wait_env] + self.dt
+        env_idx, car_idx, choice = env_idx[ok], car_idx[ok], choice[ok]
+        rows = np.flatnonzero(ok)
+        self.s[env_idx, car_idx] = cand_s[rows, choice]
+        self.d[env_idx, car_idx] = cand_d[rows, choice]
         self.distance[env_idx, car_idx] = cand_dist[rows, choice]
         self.velocity[env_idx, car_idx] = 0.0
         self.yaw_rate[env_idx, car_idx] = 0.0
@@ -826,6 +820,9 @@ class RaceCore:
         self.pending_replace[env_idx, car_idx] = False
         self.resets[env_idx, car_idx] += 1
         self.lap_resets[env_idx, car_idx] += 1
+        placed = np.zeros_like(mask)
+        placed[env_idx, car_idx] = True
+        return placed
 
     def _park_cars(self, mask: BoolArray) -> None:
         """Move cars whose episode ended off the track, where nobody can hit them."""
