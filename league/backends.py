@@ -102,12 +102,38 @@ class LocalBackend:
             self._pool = None
 
 
+LOOPBACK = "127.0.0.1"
+"""Where a local Ray started by a backend listens."""
+RAY_CLUSTER_ENV = "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"
+"""Ray's switch between a single-machine Ray on the loopback address (its default on macOS and
+Windows) and a cluster-ready one on the machine's network address (its default on Linux)."""
+
+
+def local_ray_options(num_cpus: int | None) -> dict[str, Any]:
+    """``ray.init`` arguments of a local Ray that listens on 127.0.0.1 only.
+
+    Ray's servers (GCS, raylet, object manager, workers) listen on the node's IP address, and
+    on Linux ``ray.init`` replaces a loopback ``_node_ip_address`` with the machine's network
+    address unless Ray runs in its single-machine mode. This switches that mode on: in the
+    environment, which every Ray process inherits, and in Ray's constant of this process, which
+    was read when ``ray`` was imported.
+    """
+    import ray._private.ray_constants as ray_constants
+
+    os.environ[RAY_CLUSTER_ENV] = "0"
+    ray_constants.ENABLE_RAY_CLUSTER = False
+    return {"num_cpus": num_cpus, "_node_ip_address": LOOPBACK, "include_dashboard": False,
+            "dashboard_host": LOOPBACK}
+
+
 class RayBackend:
     """Run jobs as Ray tasks (one CPU-fraction each) on a local Ray or a cluster.
 
     Args:
         address: ``ray.init`` address (``"auto"`` or ``"ray://host:port"``); None starts a
-            local Ray.
+            local Ray that listens on 127.0.0.1 only (``local_ray_options``: whoever reaches
+            a Ray can run code in it), unless ``RAY_ADDRESS`` names a cluster. A cluster
+            listens where its ``ray start`` put it: the user's choice.
         num_cpus: CPUs of a local Ray (None: all).
         cpus_per_task: Logical CPUs a job reserves. Fractional so that a long-lived actor
             elsewhere cannot starve the tasks (Ray reserves an actor's CPUs for its life).
@@ -128,8 +154,8 @@ class RayBackend:
         self._started = False
         if not ray.is_initialized():
             kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False}
-            if address is None:
-                kwargs["num_cpus"] = num_cpus
+            if address is None and not os.environ.get("RAY_ADDRESS"):
+                kwargs.update(local_ray_options(num_cpus))
             ray.init(address=address, **kwargs)
             self._started = True
         self.cpus_per_task = cpus_per_task

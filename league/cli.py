@@ -3,8 +3,8 @@
     h2h-racing tournament --players A,B,C --tracks T1,T2 [--races 2] [--laps 2] [--field-races N]
                           [--schedule round_robin|swiss] [--league FILE] [--name NAME]
                           [--backend inprocess|local|ray] [--workers N] [--address ADDR]
-    h2h-racing league train --config league/NAME.toml [--out runs/leagues/NAME] [--minutes M]
-                          [--backend ...]
+    h2h-racing league train --config recommended|smoke|FILE.toml [--out runs/leagues/NAME]
+                          [--minutes M] [--backend ...]
     h2h-racing league table --league FILE [--context PREFIX]
     h2h-racing league plot --league FILE [--out DIR]
 """
@@ -41,7 +41,8 @@ def _add_backend_args(parser: argparse.ArgumentParser, default: str) -> None:
     parser.add_argument("--workers", type=int, default=None,
                         help="worker processes (local) or CPUs of a local Ray (default: all)")
     parser.add_argument("--address", default=None,
-                        help="Ray cluster address for --backend ray (default: a local Ray)")
+                        help="Ray cluster address for --backend ray (default: a local Ray, which "
+                             "listens on 127.0.0.1 only)")
 
 
 class _Progress:
@@ -94,7 +95,12 @@ def _cmd_league_train(args: argparse.Namespace) -> int:
     from h2h_racing.league.selfplay import League, LeagueConfig
 
     _exit_on_sigterm()
-    config = LeagueConfig.from_toml(args.config)
+    from h2h_racing.configs import resolve_config
+
+    try:
+        config = LeagueConfig.from_toml(resolve_config(args.config, "league"))
+    except FileNotFoundError as err:
+        raise SystemExit(f"error: {err}") from None
     if args.minutes is not None:
         config = dataclasses.replace(config, minutes=args.minutes)
     if args.rounds is not None:
@@ -260,7 +266,10 @@ def add_commands(sub: Any) -> None:
     league = sub.add_parser("league", help="self-play league: train, table, plot")
     lsub = league.add_subparsers(dest="league_command", required=True)
     train = lsub.add_parser("train", help="run a self-play league (needs h2h-racing[train])")
-    train.add_argument("--config", required=True, help="league config, e.g. league/speedway.toml")
+    train.add_argument("--config", required=True, metavar="LEAGUE.toml|NAME",
+                       help="league config: a TOML file, or a shipped one by name: recommended "
+                            "(the 30-minute league that made the best racer's recipe) or smoke "
+                            "(a one-minute look)")
     train.add_argument("--out", default=None, help="league folder (default runs/leagues/NAME)")
     train.add_argument("--minutes", type=float, default=None, help="override the time budget")
     train.add_argument("--rounds", type=int, default=None, help="override the round cap")

@@ -132,3 +132,111 @@ def test_parent_watch_alone_ends_a_child_of_a_killed_parent(tmp_path):
     finally:
         if parent.poll() is None:
             parent.kill()
+
+
+# ------------------------------------------------------------ a local Ray on 127.0.0.1 only
+
+class _FakeRay:
+    """Records ``ray.init``'s arguments (a real Ray takes ~10 s to start)."""
+
+    def __init__(self) -> None:
+        self.calls: list[dict] = []
+
+    def is_initialized(self) -> bool:
+        return False
+
+    def init(self, **kwargs) -> None:
+        self.calls.append(kwargs)
+
+
+@pytest.fixture
+def fake_ray(monkeypatch):
+    ray = pytest.importorskip("ray")
+    import ray._private.ray_constants as ray_constants
+
+    fake = _FakeRay()
+    monkeypatch.setattr(ray, "is_initialized", fake.is_initialized)
+    monkeypatch.setattr(ray, "init", fake.init)
+    # What the backend switches, put back after the test.
+    monkeypatch.setattr(ray_constants, "ENABLE_RAY_CLUSTER", ray_constants.ENABLE_RAY_CLUSTER)
+    monkeypatch.delenv("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", raising=False)
+    monkeypatch.delenv("RAY_ADDRESS", raising=False)
+    return fake
+
+
+def test_a_local_ray_is_started_on_the_loopback_address_only(fake_ray):
+    import ray._private.ray_constants as ray_constants
+
+    from h2h_racing.league.backends import RayBackend
+
+    RayBackend(num_cpus=2)
+    (kwargs,) = fake_ray.calls
+    assert kwargs["address"] is None
+    assert kwargs["_node_ip_address"] == "127.0.0.1"
+    assert kwargs["include_dashboard"] is False
+    assert kwargs["dashboard_host"] == "127.0.0.1"
+    assert kwargs["num_cpus"] == 2
+    # Without the single-machine mode, ray.init swaps 127.0.0.1 for the network address.
+    assert os.environ["RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"] == "0"
+    assert ray_constants.ENABLE_RAY_CLUSTER is False
+
+
+def test_a_cluster_address_stays_the_users_choice(fake_ray, monkeypatch):
+    """An address given, or one in ``RAY_ADDRESS`` (which ``ray.init`` reads): no local Ray
+    options, and Ray's mode switch untouched."""
+    import ray._private.ray_constants as ray_constants
+
+    from h2h_racing.league.backends import RayBackend
+
+    before = ray_constants.ENABLE_RAY_CLUSTER
+    for address, env in (("ray://head:10001", None), ("auto", None), (None, "ray://head:1")):
+        if env is not None:
+            monkeypatch.setenv("RAY_ADDRESS", env)
+        fake_ray.calls.clear()
+        RayBackend(address=address)
+        (kwargs,) = fake_ray.calls
+        assert kwargs["address"] == address
+        assert "_node_ip_address" not in kwargs and "num_cpus" not in kwargs, (address, env)
+        assert "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER" not in os.environ
+        assert ray_constants.ENABLE_RAY_CLUSTER is before
+
+
+RAY_PARENT = """
+    import json, os
+    import psutil
+    from h2h_racing.league.backends import RayBackend
+
+    def pid(job):
+        return os.getpid()
+
+    if __name__ == "__main__":
+        backend = RayBackend(num_cpus=1)
+        workers = sorted({p for _, p in backend.map(pid, range(2))})
+        me = psutil.Process()
+        ours = {me.pid} | {p.pid for p in me.children(recursive=True)}
+        listening = sorted({(c.laddr.ip, c.laddr.port, psutil.Process(c.pid).name())
+                            for c in psutil.net_connections("inet")
+                            if c.status == psutil.CONN_LISTEN and c.pid in ours})
+        print(json.dumps({"workers": workers, "listening": listening}), flush=True)
+        backend.close()
+"""
+
+
+@pytest.mark.filterwarnings("ignore::DeprecationWarning")
+def test_a_local_ray_listens_on_127_0_0_1_only(tmp_path):
+    """Every listening socket of a real local Ray (GCS, raylet, workers, the driver)."""
+    import json
+
+    pytest.importorskip("ray")
+    parent = _start(RAY_PARENT, tmp_path)
+    try:
+        report = json.loads(_read_line(parent, timeout=300))
+        assert parent.wait(timeout=120) == 0
+    finally:
+        if parent.poll() is None:
+            parent.kill()
+    names = {name for _, _, name in report["listening"]}
+    assert {"gcs_server", "raylet"} <= names, report
+    assert len(report["workers"]) >= 1
+    loopback = {"127.0.0.1", "::ffff:127.0.0.1", "::1"}
+    assert [s for s in report["listening"] if s[0] not in loopback] == []
