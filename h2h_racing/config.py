@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -501,7 +502,8 @@ class EnvConfig:
     """Env steps after which every car is truncated."""
     sensors: tuple[str, ...] = ("state",)
     """Observation keys, in order: any of ``"state"``, ``"camera"``, ``"lidar"``. With only
-    ``"state"`` the observation is the state vector itself; otherwise a ``Dict``."""
+    ``"state"`` the observation is the state vector itself; otherwise a ``Dict``. Any
+    sequence of names is accepted (JSON and YAML give lists) and stored as a tuple."""
     camera: CameraConfig = field(default_factory=CameraConfig)
     """Camera settings (used when ``"camera"`` is in ``sensors``)."""
     lidar: LidarConfig = field(default_factory=LidarConfig)
@@ -579,10 +581,14 @@ class EnvConfig:
                owner, "physics_substeps", self.physics_substeps, "an int in [1, 32]")
         _check(isinstance(self.max_cycles, int) and self.max_cycles >= 1, owner, "max_cycles",
                self.max_cycles, "an int >= 1")
+        if isinstance(self.sensors, str):
+            object.__setattr__(self, "sensors", (self.sensors,))
+        elif isinstance(self.sensors, Sequence):
+            object.__setattr__(self, "sensors", tuple(self.sensors))
         _check(isinstance(self.sensors, tuple) and len(self.sensors) >= 1
                and len(set(self.sensors)) == len(self.sensors)
                and all(k in SENSORS for k in self.sensors), owner, "sensors", self.sensors,
-               f"a non-empty tuple of distinct names from {SENSORS}")
+               f"a non-empty sequence of distinct names from {SENSORS}")
         _check(isinstance(self.camera, CameraConfig), owner, "camera", self.camera,
                "a CameraConfig")
         _check(isinstance(self.lidar, LidarConfig), owner, "lidar", self.lidar, "a LidarConfig")

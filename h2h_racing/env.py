@@ -1,4 +1,4 @@
-"""# h2h_racing_v1: head-to-head racing of 1/18-scale cars
+"""# h2h_racing_v2: head-to-head racing of 1/18-scale cars
 
 | | |
 |---|---|
@@ -35,7 +35,8 @@ track-relative gap, lateral offset and relative speed. Bot cars are opponents he
 needs the speed feature the obstacle slots lack), so a learner in `head_to_bot` sees them
 without extra slots; raise `opponent_slots` with many bots.
 
-Any other choice, e.g. `sensors=("camera", "lidar", "state")`, gives a `Dict` with those keys:
+Any other choice, e.g. `sensors=("camera", "lidar", "state")` (any sequence of names, a list
+too), gives a `Dict` with those keys:
 - `camera`: DeepRacer's front camera (0.13 m high, 0.145 m ahead, pitched down 15 deg, 64.7 deg
   horizontal field of view), 160 x 120 greyscale uint8 by default, shape (H, W, C) with
   C = cameras x frame_stack (`camera=CameraConfig(stereo=True, frame_stack=4, ...)`); it shows
@@ -48,7 +49,7 @@ Sensors read the simulation state only, never the spectator renderer.
 
 ## Rewards
 The weighted sum of these terms (weights in `RewardConfig`; each weighted term is also in
-`infos[agent]["reward_terms"]`):
+`infos[agent]["reward_<term>"]`):
 
 | term | value | default weight |
 |---|---|---|
@@ -69,9 +70,9 @@ each car's reward is `float(reward_function(params))` from the first step on (`p
 steering, the obstacles, the bot cars and the other cars as `objects_*`, in that order; with
 bots every `objects_speed` is `bot_speed`, as in DeepRacer). A file is loaded once per car, so
 module-level state is per car; a callable is shared. A car frozen by a penalty gets 0.0
-without a call. The function gets a deep copy; `infos[agent]["deepracer_params"]` holds the
-params of that step (None when the car was not rated), and `reward_terms` still holds the
-built-in terms. An exception, a non-number, NaN or inf raises `RewardFunctionError`
+without a call. The function gets a deep copy; with `info_level="full"`,
+`infos[agent]["deepracer_params"]` holds the params of that step (None when the car was not
+rated); the `reward_<term>` infos still hold the built-in terms. An exception, a non-number, NaN or inf raises `RewardFunctionError`
 naming the file, car, step and params; a reward outside +-1e5 warns once per car.
 `h2h_racing.deepracer.load_model_metadata("model_metadata.json")` gives the matching action
 space and sensors as keyword overrides.
@@ -87,7 +88,17 @@ Rules are `RaceRules` (presets by `race_type`; `rules="training"` or `"race"`):
   off the track;
 - the race time limit and `max_cycles` end the episode of every car still racing
   (**truncated**).
-Finished and retired cars leave `env.agents` on the step that ends them.
+Finished and retired cars leave `env.agents` on the step that ends them. Actions for cars
+no longer in `env.agents` are ignored (a trainer may send one action per car on every step);
+a missing action of a racing car, an unknown agent name or an invalid value raises
+`ValueError`.
+
+`parked_agents=True` keeps finished and retired cars in `env.agents` as *parked agents* until
+the race ends (every car finished, retired or stopped by the time limit), for trainers that
+need a fixed set of agents (SuperSuit's vector envs, SB3): a parked car still gets an
+observation and an info (`parked` True) every step, its reward is 0.0, its actions are
+ignored, and it reports `terminated` (finished or retired) or `truncated` (stopped) only on
+the step that ends the race, together with every other car; then `env.agents` is empty.
 
 Presets: `head_to_head` (3 laps, total time, 5 s penalties, 180 s limit), `time_trial`
 (4 minutes, best valid lap, a lap with more than 3 resets is void), `object_avoidance`
@@ -123,16 +134,28 @@ gives the same first state; seed only the first reset to rotate. The rsl-rl VecE
 direction and reset one at a time): train it on `track.reversed()` instead.
 
 ## Info
-`infos[agent]` holds: `progress` (% of a lap since the episode start), `distance` (m from the
-start line), `lap`, `lap_times`, `last_lap_time`, `best_lap_time`, `rank`, `gap_to_leader`
-(m), `off_track`, `crashed`, `collided`, `penalised`, `frozen`, `finished`, `overtakes`,
-`overtaken`, `defences`, `resets`, `penalties`, `time` (simulated s), `reward_terms`.
+`infos[agent]` is flat and fixed: the same keys at `reset` and at every step, each a finite
+Python number (`h2h_racing.infos.INFO_KEYS`), so trainers can build tensor specs from the
+infos of `reset` (TorchRL's `PettingZooWrapper` does):
+- floats: `progress` (% of a lap since the episode start), `distance` (m from the start
+  line), `last_lap_time` and `best_lap_time` (s; **-1.0 while the car has no (valid) timed
+  lap**, `h2h_racing.infos.NO_LAP_TIME`), `gap_to_leader` (m), `time` (simulated s);
+- ints: `lap`, `rank`, `overtakes`, `overtaken`, `defences`, `resets`, `penalties`;
+- bools: `frozen`, `finished`, `off_track`, `crashed`, `collided`, `penalised`, `parked`
+  (the car's race is over and it is parked off the track);
+- floats: `reward_progress`, `reward_speed`, ..., `reward_time`: the weighted reward terms
+  of the step (0.0 at reset).
+
+`info_level="full"` adds the structures that do not fit: `lap_times` (every lap's time, a
+list growing each lap), `reward_terms` (the same terms as a dict) and, with a DeepRacer
+`reward_function`, `deepracer_params` (at step only). `env.results()` gives the race results.
 
 ## Arguments
 ```python
 h2h_racing.parallel_env(track="speedway", num_cars=2, race_type="head_to_head",
                         rules=None, render_mode=None, max_cycles=10_000,
-                        reward_function=None, **config)
+                        reward_function=None, info_level="flat", parked_agents=False,
+                        **config)
 ```
 `track`: a catalogue name (`h2h-racing tracks list`), a track file (.json, .npy, .csv) or
 a `Track`. `race_type`: `"head_to_head"`, `"time_trial"`, `"object_avoidance"` or
@@ -155,6 +178,11 @@ but not bit-for-bit. Scripted drivers (``h2h_racing.policies``) read the true st
 ``env.core`` (the batched core behind the env, E = 1).
 
 ## Version history
+- v2: flat, fixed infos (`reward_<term>` keys instead of the `reward_terms` dict, lap times
+  -1.0 instead of inf before the first lap, a `parked` flag, no `lap_times` list: those and
+  `deepracer_params` with `info_level="full"`); actions for cars that have left the race are
+  ignored instead of raising; `parked_agents=True`; `sensors` accepts any sequence of names.
+  Observations, rewards and the race are unchanged.
 - v1: `head_to_bot` and bot cars (`num_bots`, ...), which fill the state observation's
   opponent slots, appear to the camera, the lidar and DeepRacer's `objects_*`, and are judged
   in contacts; DeepRacer training starts (`round_robin_starts`, `alternate_direction`);
@@ -170,7 +198,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
-import types
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -187,7 +214,7 @@ from h2h_racing.config import EnvConfig, RaceRules
 from h2h_racing.core import RaceCore
 from h2h_racing.deepracer.params import ParamsBuilder
 from h2h_racing.deepracer.reward import DeepRacerReward
-from h2h_racing.race import TIME_EPS
+from h2h_racing.infos import InfoBuilder
 from h2h_racing.sensors.camera import CameraSensor
 from h2h_racing.sensors.lidar import LidarSensor
 from h2h_racing.sensors.state import OBS_BOUND, state_observation, state_size
@@ -217,11 +244,17 @@ class RacingEnv(ParallelEnv):
         reward_function: A DeepRacer reward function: the path of a ``.py`` file defining
             ``reward_function(params)`` (loaded once per car) or a callable; None keeps the
             built-in reward.
+        info_level: ``"flat"`` (default: fixed keys of finite numbers, ``h2h_racing.infos``)
+            or ``"full"`` (those plus ``lap_times``, ``reward_terms`` and
+            ``deepracer_params``).
+        parked_agents: Keep finished and retired cars in ``env.agents`` as parked agents
+            until the race ends (zero reward, actions ignored, terminated or truncated with
+            everyone at the end), for trainers that need a fixed set of agents.
         **overrides: Further ``EnvConfig`` fields.
     """
 
     metadata = {
-        "name": "h2h_racing_v1",
+        "name": "h2h_racing_v2",
         "render_modes": ["rgb_array"],
         "render_fps": 15,
         "is_parallelizable": True,
@@ -231,6 +264,7 @@ class RacingEnv(ParallelEnv):
                  race_type: str = "head_to_head", rules: Any = None,
                  render_mode: str | None = None, config: EnvConfig | None = None,
                  reward_function: str | Path | Callable[[dict[str, Any]], Any] | None = None,
+                 info_level: str = "flat", parked_agents: bool = False,
                  **overrides: Any) -> None:
         # "human" is accepted so that PettingZoo's render_test can read the metadata; this
         # headless build cannot open a window and says so on the first render().
@@ -294,12 +328,17 @@ class RacingEnv(ParallelEnv):
                                               self.possible_agents)
             self._params = self._params_builder(False)
         self._weights = rewards.weights_of(config.reward)
-        no_car = np.zeros((1, config.num_cars), dtype=bool)
-        self._no_events = types.SimpleNamespace(off_track=no_car, crashed=no_car,
-                                                collided=no_car, penalised=no_car)
+        self._info = InfoBuilder(config.num_cars, self.track.length, info_level)
+        if not isinstance(parked_agents, bool):
+            raise ValueError(f"parked_agents must be a bool, got {parked_agents!r}")
+        self.parked_agents = parked_agents
+        # How each parked agent's race ended (True: terminated, False: truncated), reported
+        # when the race ends.
+        self._ended: dict[str, bool] = {}
         self._renderer: Any = None
         self._reset_done = False
         self._live: set[str] = set()
+        self._active: list[str] = []
 
     # ---------------------------------------------------------------- spaces
     def observation_space(self, agent: str) -> spaces.Space:
@@ -355,10 +394,12 @@ class RacingEnv(ParallelEnv):
         if self._camera is not None:
             self._camera.reset(self.core)
         self.agents = self.possible_agents[:]
+        self._active = self.agents
         self._live = set(self.agents)
+        self._ended = {}
         self._reset_done = True
         obs = self._observations()
-        return obs, self._infos(self.agents, None, None)
+        return obs, self._info.build(self.core, self._index, self.agents, None, None)
 
     def step(self, actions: dict[str, Any]) -> tuple[dict[str, Any], dict[str, float],
                                                      dict[str, bool], dict[str, bool],
@@ -366,22 +407,26 @@ class RacingEnv(ParallelEnv):
         """Advance the race by one step (1/15 s).
 
         Args:
-            actions: One action per live agent (``env.agents``).
+            actions: One action per racing agent. Entries for agents no longer in
+                ``env.agents`` (finished or retired), and for parked agents, are ignored, so a
+                trainer may send one action per car on every step.
 
         Returns:
             ``(observations, rewards, terminations, truncations, infos)`` keyed by the agents
-            that were live when the step started.
+            of ``env.agents`` when the step started.
 
         Raises:
             RuntimeError: ``reset`` was not called, or the race is over.
-            ValueError: missing or unknown agents, wrong shapes, NaN/inf or bad indices.
+            ValueError: missing actions of racing agents, unknown agent names, wrong shapes,
+                NaN/inf or bad indices.
         """
         if not self._reset_done:
             raise RuntimeError("call reset() before step()")
         agents = self.agents
         if not agents:
             raise RuntimeError("the race is over (env.agents is empty); call reset()")
-        steer, speed = self._parse_actions(actions, agents)
+        active = self._active
+        steer, speed = self._parse_actions(actions, active)
         core = self.core
         racing = core._racing
         events = core.step(steer, speed)
@@ -390,7 +435,7 @@ class RacingEnv(ParallelEnv):
         reward = reward_array[0].tolist()
         params = None
         if self._deepracer is not None:
-            reward, params = self._deepracer_rewards(agents, racing[0], steer[0], events)
+            reward, params = self._deepracer_rewards(active, racing[0], steer[0], events)
         obs = self._observations()
         term = events.terminated[0].tolist()
         trunc = events.truncated[0].tolist()
@@ -398,15 +443,56 @@ class RacingEnv(ParallelEnv):
         rewards_out = {a: reward[index[a]] for a in agents}
         terminations = {a: term[index[a]] for a in agents}
         truncations = {a: trunc[index[a]] for a in agents}
-        infos = self._infos(agents, events, terms=terms)
+        infos = self._info.build(core, index, agents, events, terms)
         if params is not None:
-            for a in agents:
-                infos[a]["deepracer_params"] = params[index[a]]
+            if self._info.level == "full":
+                for a in agents:
+                    infos[a]["deepracer_params"] = params[index[a]]
         if any(term) or any(trunc):
-            self.agents = [a for a in agents if not (terminations[a] or truncations[a])]
-            self._live = set(self.agents)
+            self._active = [a for a in active if not (terminations[a] or truncations[a])]
+            self._live = set(self._active)
+            if not self.parked_agents:
+                self.agents = self._active
+            else:
+                self._park(active, terminations, truncations)
+        if self.parked_agents and len(self._active) < len(agents):
+            rewards_out, terminations, truncations = self._parked_results(
+                agents, active, rewards_out, terminations, truncations)
         obs = {a: obs[a] for a in agents}
         return obs, rewards_out, terminations, truncations, infos
+
+    def _park(self, active: list[str], terminations: dict[str, bool],
+              truncations: dict[str, bool]) -> None:
+        """Record how the cars that ended this step ended (parked_agents mode)."""
+        for a in active:
+            if terminations[a] or truncations[a]:
+                self._ended[a] = terminations[a]
+
+    def _parked_results(self, agents: list[str], active: list[str],
+                        rewards_out: dict[str, float],
+                        terminations: dict[str, bool], truncations: dict[str, bool],
+                        ) -> tuple[dict[str, float], dict[str, bool], dict[str, bool]]:
+        """Rewards and ends of a step with parked agents (parked_agents mode).
+
+        A parked car gets 0.0 after the step that ended its race, and reports its end only
+        when the race ends (no car racing): then every car is terminated or truncated as
+        its own race ended.
+        """
+        over = not self._active
+        ended = self._ended
+        racing = set(active)
+        for a in agents:
+            if a not in racing:
+                rewards_out[a] = 0.0
+            if a in ended:
+                if over:
+                    terminations[a] = ended[a]
+                    truncations[a] = not ended[a]
+                else:
+                    terminations[a] = truncations[a] = False
+        if over:
+            self.agents = []
+        return rewards_out, terminations, truncations
 
     def _params_builder(self, reversed_: bool) -> ParamsBuilder:
         """The DeepRacer params builder of one driving direction (built once)."""
@@ -454,9 +540,14 @@ class RacingEnv(ParallelEnv):
                              f"{type(actions).__name__}; live agents: {agents}")
         if actions.keys() != self._live:
             missing = [a for a in agents if a not in actions]
-            unknown = [a for a in actions if a not in self._live]
-            raise ValueError(f"actions must have exactly one entry per live agent {agents}; "
-                             f"missing {missing}, unknown or finished {unknown}")
+            unknown = [a for a in actions if a not in self._index]
+            if missing or unknown:
+                raise ValueError(f"actions must have one entry per racing agent {agents} "
+                                 f"(entries for cars whose race is over are ignored); missing "
+                                 f"{missing}, unknown agents {unknown} (the agents are "
+                                 f"{self.possible_agents})")
+            # Actions for cars whose race is over are not read.
+            actions = {a: actions[a] for a in agents}
         n = self.config.num_cars
         every = len(agents) == n
         if self.config.action_type == "continuous":
@@ -518,44 +609,6 @@ class RacingEnv(ParallelEnv):
         return {a: {key: value[i] for key, value in arrays.items()}
                 for i, a in enumerate(self.possible_agents)}
 
-    def _infos(self, agents: list[str], events: Any,
-               terms: npt.NDArray[np.float64] | None) -> dict[str, dict[str, Any]]:
-        core = self.core
-        n = self.config.num_cars
-        floats = np.empty((n, len(_FLOAT_INFO)))
-        ints = np.empty((n, len(_INT_INFO)), dtype=np.int64)
-        flags = np.empty((n, len(_BOOL_INFO)), dtype=bool)
-        ev = events if events is not None else self._no_events
-        _info_kernel(core.distance, core.start_distance, 100.0 / self.track.length,
-                     core.last_lap_time, core.best_lap_time, core.laps, core.rank,
-                     core.overtakes, core.overtaken, core.defences, core.resets, core.penalties,
-                     core.frozen_until, core.time, core.finished, ev.off_track, ev.crashed,
-                     ev.collided, ev.penalised, floats, ints, flags)
-        float_rows, int_rows, flag_rows = floats.tolist(), ints.tolist(), flags.tolist()
-        term_rows = (terms[:, 0, :].T.tolist() if terms is not None
-                     else [[0.0] * len(rewards.TERMS)] * n)
-        time = float(core.time[0])
-        lap_times = core.lap_times[0]
-        infos = {}
-        for a in agents:
-            i = self._index[a]
-            f, k, b, t = float_rows[i], int_rows[i], flag_rows[i], term_rows[i]
-            # One dict display per agent (keys as in _FLOAT_INFO, _INT_INFO, _BOOL_INFO and
-            # rewards.TERMS): much cheaper than building it key by key.
-            infos[a] = {
-                "progress": f[0], "distance": f[1], "last_lap_time": f[2], "best_lap_time": f[3],
-                "gap_to_leader": f[4],
-                "lap": k[0], "rank": k[1], "overtakes": k[2], "overtaken": k[3],
-                "defences": k[4], "resets": k[5], "penalties": k[6],
-                "frozen": b[0], "finished": b[1], "off_track": b[2], "crashed": b[3],
-                "collided": b[4], "penalised": b[5],
-                "lap_times": list(lap_times[i]), "time": time,
-                "reward_terms": {"progress": t[0], "speed": t[1], "off_track": t[2],
-                                 "crash": t[3], "contact": t[4], "overtake": t[5], "lap": t[6],
-                                 "time": t[7]},
-            }
-        return infos
-
     def render(self) -> npt.NDArray[np.uint8] | None:
         """Return a top-down spectator frame (H, W, 3) uint8 in ``rgb_array`` mode."""
         if self.render_mode is None:
@@ -600,41 +653,6 @@ def _scale_actions(values, steer_mid, steer_half, speed_mid, speed_half, steer,
             steer[i] += steer_mid
         speed[i] = speed_mid + min(max(b, -1.0), 1.0) * speed_half
     return True
-
-
-_FLOAT_INFO = ("progress", "distance", "last_lap_time", "best_lap_time", "gap_to_leader")
-_INT_INFO = ("lap", "rank", "overtakes", "overtaken", "defences", "resets", "penalties")
-_BOOL_INFO = ("frozen", "finished", "off_track", "crashed", "collided", "penalised")
-
-
-@njit(cache=True)
-def _info_kernel(distance, start_distance, percent_per_metre, last_lap, best_lap, laps, rank,
-                 overtakes, overtaken, defences, resets, penalties, frozen_until, time, finished,
-                 off_track, crashed, collided, penalised, floats, ints, flags):  # pragma: no cover
-    # Gathers the per-car info fields of env copy 0 into three small tables, so that the
-    # per-agent dicts are built from three tolist() calls instead of one per field.
-    leader = distance[0, 0]
-    for i in range(distance.shape[1]):
-        leader = max(leader, distance[0, i])
-    for i in range(distance.shape[1]):
-        floats[i, 4] = leader - distance[0, i]
-        floats[i, 0] = (distance[0, i] - start_distance[0, i]) * percent_per_metre
-        floats[i, 1] = distance[0, i]
-        floats[i, 2] = last_lap[0, i]
-        floats[i, 3] = best_lap[0, i]
-        ints[i, 0] = laps[0, i]
-        ints[i, 1] = rank[0, i]
-        ints[i, 2] = overtakes[0, i]
-        ints[i, 3] = overtaken[0, i]
-        ints[i, 4] = defences[0, i]
-        ints[i, 5] = resets[0, i]
-        ints[i, 6] = penalties[0, i]
-        flags[i, 0] = frozen_until[0, i] > time[0] + TIME_EPS
-        flags[i, 1] = finished[0, i]
-        flags[i, 2] = off_track[0, i]
-        flags[i, 3] = crashed[0, i]
-        flags[i, 4] = collided[0, i]
-        flags[i, 5] = penalised[0, i]
 
 
 def parallel_env(**kwargs: Any) -> RacingEnv:

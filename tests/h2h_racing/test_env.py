@@ -21,13 +21,13 @@ from h2h_racing.track_io import list_tracks
 from conftest import circle_track
 
 DETERMINISM_STEPS = 500
-DOCUMENTED_INFO_KEYS = {
-    "progress", "distance", "lap", "lap_times", "last_lap_time", "best_lap_time", "rank",
-    "gap_to_leader", "off_track", "crashed", "collided", "penalised", "frozen", "finished",
-    "overtakes", "overtaken", "defences", "resets", "penalties", "time", "reward_terms",
-}
-IMPLEMENTED_INFO_KEYS = DOCUMENTED_INFO_KEYS - {"gap_to_leader"}
 REWARD_TERMS = {"progress", "speed", "off_track", "crash", "contact", "overtake", "lap", "time"}
+# The env card's list, written out by hand.
+DOCUMENTED_INFO_KEYS = {
+    "progress", "distance", "last_lap_time", "best_lap_time", "gap_to_leader", "time",
+    "lap", "rank", "overtakes", "overtaken", "defences", "resets", "penalties",
+    "frozen", "finished", "off_track", "crashed", "collided", "penalised", "parked",
+} | {f"reward_{term}" for term in REWARD_TERMS}
 
 
 # ---------------------------------------------------------------------- helpers
@@ -398,7 +398,7 @@ class TestInputValidation:
     def test_unknown_agent_lists_live_agents(self, make_env: Any) -> None:
         env = make_env()
         env.reset(seed=0)
-        with pytest.raises(ValueError, match=r"\['car_0', 'car_1'\].*unknown or finished \['car_7'\]"):
+        with pytest.raises(ValueError, match=r"\['car_0', 'car_1'\].*unknown agents \['car_7'\]"):
             env.step({"car_0": np.zeros(2), "car_1": np.zeros(2), "car_7": np.zeros(2)})
         with pytest.raises(ValueError, match=r"missing \['car_1'\].*\['car_9'\]"):
             env.step({"car_0": np.zeros(2), "car_9": np.zeros(2)})
@@ -565,17 +565,16 @@ class TestReturnsAndInfos:
                 assert type(rew[agent]) is float, f"[{step}] reward {type(rew[agent])}"
                 assert type(term[agent]) is bool and type(trunc[agent]) is bool, f"[{step}]"
                 info = infos[agent]
-                assert IMPLEMENTED_INFO_KEYS <= set(info), f"[{step}] {set(info)}"
-                assert set(info["reward_terms"]) == REWARD_TERMS
-                total = sum(info["reward_terms"].values())
+                assert set(info) == DOCUMENTED_INFO_KEYS, f"[{step}] {set(info)}"
+                total = sum(info[f"reward_{term}"] for term in REWARD_TERMS)
                 assert rew[agent] == pytest.approx(total, abs=1e-9), f"[{step}] {agent}"
 
     def test_documented_info_keys_present(self, make_env: Any) -> None:
         env = make_env()
         _, infos = env.reset(seed=0)
-        assert DOCUMENTED_INFO_KEYS <= set(infos["car_0"])
+        assert set(infos["car_0"]) == DOCUMENTED_INFO_KEYS
         _, _, _, _, infos = env.step({a: np.zeros(2, np.float32) for a in env.agents})
-        assert DOCUMENTED_INFO_KEYS <= set(infos["car_0"])
+        assert set(infos["car_0"]) == DOCUMENTED_INFO_KEYS
 
     def test_reward_weights_scale_terms(self, make_env: Any) -> None:
         # progress weight 2, time weight -0.1: reward = 2 * progress_m - 0.1 per racing step.
@@ -586,17 +585,18 @@ class TestReturnsAndInfos:
         for step in range(20):
             _, r, _, _, info = env.step({"car_0": np.array([0.0, 0.0], np.float32)})
             _, r0, _, _, info0 = ref.step({"car_0": np.array([0.0, 0.0], np.float32)})
-            progress = info0["car_0"]["reward_terms"]["progress"]
-            assert info["car_0"]["reward_terms"]["progress"] == 2.0 * progress, f"[{step}]"
-            assert info["car_0"]["reward_terms"]["time"] == -0.1, f"[{step}]"
+            progress = info0["car_0"]["reward_progress"]
+            assert info["car_0"]["reward_progress"] == 2.0 * progress, f"[{step}]"
+            assert info["car_0"]["reward_time"] == -0.1, f"[{step}]"
             assert r["car_0"] == pytest.approx(2.0 * progress - 0.1, abs=1e-12), f"[{step}]"
 
     def test_reset_infos_are_zero(self, make_env: Any) -> None:
         _, infos = make_env(num_cars=2).reset(seed=0)
         for info in infos.values():
-            assert info["time"] == 0.0 and info["lap"] == 0 and info["lap_times"] == []
-            assert info["progress"] == 0.0
-            assert all(v == 0.0 for v in info["reward_terms"].values())
+            assert info["time"] == 0.0 and info["lap"] == 0 and info["progress"] == 0.0
+            # No lap yet: the documented finite -1.0, not inf.
+            assert info["last_lap_time"] == -1.0 and info["best_lap_time"] == -1.0
+            assert all(info[f"reward_{term}"] == 0.0 for term in REWARD_TERMS)
 
     def test_agents_removed_on_termination(self, make_env: Any) -> None:
         # Training rules end a car at its first infraction; full lock at top speed on the oval
@@ -653,3 +653,131 @@ class TestRender:
             drawn.render()
             actions = {a: rng.uniform(-1, 1, 2).astype(np.float32) for a in plain.agents}
             assert_tree_equal(plain.step(actions), drawn.step(actions), f"[{step}]")
+
+
+# ---------------------------------------------------------------------- trainers' conventions
+
+def _drive_racing_line(env: Any, steps: int) -> list[Any]:
+    """Run the racing-line driver for every racing car; return the step results."""
+    drivers = [make_driver("racing_line") for _ in env.possible_agents]
+    for d in drivers:
+        d.reset(env.core)
+    out = []
+    for _ in range(steps):
+        if not env.agents:
+            break
+        actions = {a: np.asarray(drivers[i].act(env.core, i)[0], dtype=np.float32)
+                   for i, a in enumerate(env.possible_agents) if a in env.agents}
+        out.append(env.step(actions))
+    return out
+
+
+class TestTrainerConventions:
+    """Flat infos, ignored actions of departed cars, parked agents, sensors as a list."""
+
+    def test_infos_flat_fixed_and_finite_through_laps(self) -> None:
+        env = h2h_racing.parallel_env(track=circle_track(), num_cars=1)
+        _, infos = env.reset(seed=0)
+        kinds = {k: type(v) for k, v in infos["car_0"].items()}
+        assert set(kinds) == DOCUMENTED_INFO_KEYS
+        assert set(kinds.values()) <= {float, int, bool}
+        laps_seen = []
+        for _, _, _, _, step_infos in _drive_racing_line(env, 400):
+            info = step_infos["car_0"]
+            assert {k: type(v) for k, v in info.items()} == kinds
+            assert all(math.isfinite(v) for v in info.values())
+            if info["lap"] == 0:
+                assert info["last_lap_time"] == -1.0 and info["best_lap_time"] == -1.0
+            laps_seen.append((info["lap"], info["last_lap_time"], info["time"]))
+        lapped = [row for row in laps_seen if row[0] >= 1]
+        assert lapped, "the racing line never completed a lap of the 3 m circle"
+        # The first lap's time: positive, at most the time on the clock when it was counted.
+        lap, last, time = lapped[0]
+        assert 0.0 < last <= time
+
+    def test_full_info_level_adds_the_structures(self) -> None:
+        env = h2h_racing.parallel_env(track=circle_track(), num_cars=1, info_level="full")
+        _, infos = env.reset(seed=0)
+        assert infos["car_0"]["lap_times"] == [] and set(infos["car_0"]) > DOCUMENTED_INFO_KEYS
+        results = _drive_racing_line(env, 400)
+        info = results[-1][4]["car_0"]
+        assert info["lap_times"] == list(env.core.lap_times[0][0]) and info["lap"] >= 1
+        assert info["last_lap_time"] == info["lap_times"][-1]
+        assert info["reward_terms"] == {t: info[f"reward_{t}"] for t in REWARD_TERMS}
+
+    def test_info_level_checked(self) -> None:
+        with pytest.raises(ValueError, match=r"info_level.*'flat', 'full'.*'rich'"):
+            h2h_racing.parallel_env(info_level="rich")
+
+    def test_actions_of_departed_cars_are_ignored(self, make_env: Any) -> None:
+        # Training rules: full lock at top speed takes both cars off the oval, car_1 first
+        # when car_0 drives straight at low speed.
+        env = make_env(rules="training", grid="fixed")
+        ref = make_env(rules="training", grid="fixed")
+        env.reset(seed=0)
+        ref.reset(seed=0)
+        slow = np.array([0.0, -1.0], np.float32)
+        wild = np.array([1.0, 1.0], np.float32)
+        for _ in range(300):
+            if env.agents != ["car_0"]:
+                assert "car_1" in env.agents, "car_0 left the race before car_1"
+                env.step({"car_0": slow, "car_1": wild})
+                ref.step({"car_0": slow, "car_1": wild})
+        assert env.agents == ["car_0"]
+        # A trainer keeps sending car_1's action: ignored, the race goes on as without it.
+        for step in range(5):
+            got = env.step({"car_0": slow, "car_1": wild})
+            want = ref.step({"car_0": slow})
+            assert_tree_equal(got, want, f"[{step}]")
+        with pytest.raises(ValueError, match=r"unknown agents \['car_7'\]"):
+            env.step({"car_0": slow, "car_1": wild, "car_7": slow})
+        with pytest.raises(ValueError, match=r"missing \['car_0'\]"):
+            env.step({"car_1": wild})
+        with pytest.raises(ValueError, match=r"finite.*car_0"):
+            env.step({"car_0": np.array([np.nan, 0.0]), "car_1": wild})
+
+    def test_sensors_as_a_list(self, make_env: Any) -> None:
+        env = make_env(sensors=["camera", "lidar", "state"])
+        assert env.config.sensors == ("camera", "lidar", "state")
+        obs, _ = env.reset(seed=0)
+        assert list(obs["car_0"]) == ["camera", "lidar", "state"]
+        assert env.observation_space("car_0").contains(obs["car_0"])
+        with pytest.raises(ValueError, match=r"sensors.*\('state', 'camera', 'lidar'\)"):
+            make_env(sensors=["state", "radar"])
+
+    def test_parked_agents_stay_until_the_race_ends(self, make_env: Any) -> None:
+        # car_1 retires (training rules, full lock) long before the time limit stops car_0
+        # (which, driving straight and slowly, would leave the oval after about 100 steps).
+        parked = make_env(rules="training", grid="fixed", max_cycles=60, parked_agents=True)
+        plain = make_env(rules="training", grid="fixed", max_cycles=60)
+        parked.reset(seed=0)
+        plain.reset(seed=0)
+        slow = np.array([0.0, -1.0], np.float32)
+        wild = np.array([1.0, 1.0], np.float32)
+        retired_at = None
+        for step in range(60):
+            assert parked.agents == ["car_0", "car_1"], f"[{step}]"
+            obs, rew, term, trunc, infos = parked.step({"car_0": slow, "car_1": wild})
+            ref = plain.step({a: {"car_0": slow, "car_1": wild}[a] for a in plain.agents})
+            # The racing car's results are those of the plain env.
+            assert_tree_equal([r["car_0"] for r in (obs, rew, infos)],
+                              [r["car_0"] for r in (ref[0], ref[1], ref[4])], f"[{step}]")
+            if retired_at is None and "car_1" not in plain.agents:
+                retired_at = step
+                assert rew["car_1"] == ref[1]["car_1"] and infos["car_1"]["parked"]
+            elif retired_at is not None and parked.agents:
+                assert rew["car_1"] == 0.0 and infos["car_1"]["parked"], f"[{step}]"
+                assert obs["car_1"] in parked.observation_space("car_1")
+            if not parked.agents:
+                break
+            assert not any(term.values()) and not any(trunc.values()), f"[{step}]"
+        assert retired_at is not None and retired_at < 50
+        assert step == 59 and parked.agents == []
+        # The race ends: car_1 retired (terminated), car_0 was stopped (truncated).
+        assert term == {"car_0": False, "car_1": True}
+        assert trunc == {"car_0": True, "car_1": False}
+
+    def test_parked_agents_pass_pettingzoo_api(self, make_env: Any) -> None:
+        env = make_env(rules="training", parked_agents=True)
+        parallel_api_test(env, num_cycles=300)
+        api_test(parallel_to_aec(make_env(rules="training", parked_agents=True)), num_cycles=300)

@@ -51,13 +51,13 @@ class TestEnvIntegration:
             seen.append(params)
             return params["steps"] * 2
 
-        steps = drive(make_env(reward), 3)
+        steps = drive(make_env(reward, info_level="full"), 3)
         assert [p["steps"] for p in seen[::2]] == [1.0, 2.0, 3.0]
         assert all(set(p) == set(PARAM_KEYS) for p in seen)
         _, rewards, _, _, infos = steps[-1]
         assert rewards == {"car_0": 6.0, "car_1": 6.0}
         params = infos["car_0"]["deepracer_params"]
-        assert params["steps"] == 3.0 and "reward_terms" in infos["car_0"]
+        assert params["steps"] == 3.0 and "reward_progress" in infos["car_0"]
         # Each car sees the other car as an object.
         assert len(params["objects_location"]) == 1
 
@@ -67,13 +67,20 @@ class TestEnvIntegration:
             params["objects_location"].append([0, 0])
             return 1
 
-        _, _, _, _, infos = drive(make_env(vandal), 2)[-1]
+        _, _, _, _, infos = drive(make_env(vandal, info_level="full"), 2)[-1]
         params = infos["car_0"]["deepracer_params"]
         assert len(params["waypoints"]) > 0 and len(params["objects_location"]) == 1
 
     def test_without_reward_function_no_params(self) -> None:
-        infos = drive(h2h_racing.parallel_env(track="speedway"), 1)[-1][4]
+        infos = drive(h2h_racing.parallel_env(track="speedway", info_level="full"), 1)[-1][4]
         assert "deepracer_params" not in infos["car_0"]
+
+    def test_params_only_at_full_info_level(self) -> None:
+        # Default infos are flat and fixed (the same keys at reset and step).
+        _, infos = make_env(lambda p: 1.0).reset(seed=0)
+        steps = drive(make_env(lambda p: 1.0), 1)
+        assert "deepracer_params" not in steps[-1][4]["car_0"]
+        assert set(steps[-1][4]["car_0"]) == set(infos["car_0"])
 
     def test_discrete_steering_is_the_action_lists_value(self) -> None:
         seen = []
