@@ -178,11 +178,13 @@ def _train_config(args: argparse.Namespace) -> object:
     if args.config is not None:
         import tomllib
 
+        from h2h_racing.configs import resolve_config
+
         try:
-            with open(args.config, "rb") as handle:
+            with open(resolve_config(args.config, "train"), "rb") as handle:
                 data = tomllib.load(handle)
-        except FileNotFoundError:
-            raise SystemExit(f"error: --config {args.config!r}: no such file") from None
+        except FileNotFoundError as err:
+            raise SystemExit(f"error: {err}") from None
         except tomllib.TOMLDecodeError as err:
             raise SystemExit(f"error: --config {args.config!r} is not valid TOML: {err}") from None
     flags = {"track": "track", "obs": "observations", "rules": "rules", "init": "init",
@@ -315,10 +317,11 @@ def build_parser() -> argparse.ArgumentParser:
     race.set_defaults(func=_cmd_race)
 
     train = sub.add_parser("train", help="train a policy with rsl-rl PPO (needs h2h-racing[train])")
-    train.add_argument("--config", default=None, metavar="TRAIN.toml",
-                       help="TrainConfig fields from a TOML file (e.g. policies/trained/"
-                            "ppo_generalist/imitate.toml, the first step of that policy's "
-                            "training); flags given override them")
+    train.add_argument("--config", default=None, metavar="TRAIN.toml|NAME",
+                       help="TrainConfig fields from a TOML file, or a shipped policy's "
+                            "training step by name: ppo_generalist/imitate, "
+                            "ppo_generalist/finetune, racing_line_student/imitate; flags given "
+                            "override them")
     train.add_argument("--track", default=None,
                        help="catalogue name, track file, random:<seed>, or 'procedural' (a new "
                             "random track every track_every iterations, 10 by default)")
