@@ -4,6 +4,13 @@
   format ``"h2h-racing-track/1"`` (see :func:`save_track`).
 * DeepRacer: ``(N, 6)`` float64 arrays ``[cx, cy, inner_x, inner_y, outer_x, outer_y]`` [m]
   (aws-deepracer-community/deepracer-simapp ``bundle/routes``); every row is kept as ``waypoints``.
+  Route files were drawn by hand and some carry drawing slips that DeepRacer raced on regardless:
+  the 2019-era re:Invent 2018 file (71 rows) steps 2 mm backwards between two consecutive rows,
+  others repeat a row or nearly repeat it. For the simulation's geometry (``Track.centre`` and
+  the borders) a row closer than ``ROUTE_TOLERANCE`` to the previous kept row is left out
+  (:func:`route_geometry_rows`); ``Track.waypoints`` (``params["waypoints"]``) keeps every row
+  exactly as in the file, so the waypoint indices a reward function sees are the file's row
+  indices. A larger backtrack, or a route that really crosses itself, is still refused.
 * Centre-line CSV: ``x_m, y_m, w_tr_right_m, w_tr_left_m`` (TUMFTM racetrack-database, f1tenth racetracks),
   ``#`` comment lines, first row not repeated.
 
@@ -26,6 +33,9 @@ TRACK_FORMAT = "h2h-racing-track/1"
 """Value of the ``"format"`` key of a catalogue JSON file."""
 _JSON_KEYS = ("format", "name", "description", "x", "y", "width_left", "width_right")
 _SUFFIXES = (".json", ".npy", ".csv")
+ROUTE_TOLERANCE = 0.01
+"""Largest step [m] between consecutive route rows that counts as a drawing slip (a near-duplicate
+row or a tiny step backwards) and is left out of the geometry; DeepRacer's rows are ~5-30 cm apart."""
 RANDOM_PREFIX = "random:"
 """``load_track("random:<seed>")`` generates a track with :func:`h2h_racing.track_gen.random_track`."""
 
@@ -171,8 +181,13 @@ def _read_npy(path: Path) -> Track:
             f"[cx, cy, inner_x, inner_y, outer_x, outer_y], got shape {rows.shape} dtype {rows.dtype}."
         )
     rows = rows.astype(np.float64)
-    # Geometry: drop the closing duplicate (the loop is implied); zero-length segments elsewhere stay.
-    geo = rows[:-1] if len(rows) > 1 and np.array_equal(rows[-1, :2], rows[0, :2]) else rows
+    if not np.all(np.isfinite(rows)):
+        row = int(np.argwhere(~np.isfinite(rows))[0, 0])
+        raise ValueError(f"{path}: row {row} has a non-finite value (NaN or inf): {rows[row]}. "
+                         "All coordinates must be finite numbers.")
+    # Geometry: the closing row is implied by the loop; slips closer than ROUTE_TOLERANCE to the
+    # previous kept row are left out. The waypoints keep every row.
+    geo = rows[route_geometry_rows(rows[:, 0:2])]
     centre, inner, outer = geo[:, 0:2], geo[:, 2:4], geo[:, 4:6]
     x, y = centre[:, 0], centre[:, 1]
     ccw = np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) > 0
@@ -202,8 +217,12 @@ def _read_csv(path: Path) -> Track:
         raise ValueError(
             f"{path}: expected 4 columns x_m,y_m,w_tr_right_m,w_tr_left_m, got shape {data.shape}."
         )
-    if len(data) > 1 and np.array_equal(data[-1, :2], data[0, :2]):
-        data = data[:-1]  # tolerate a repeated first row
+    if not np.all(np.isfinite(data)):
+        row = int(np.argwhere(~np.isfinite(data))[0, 0])
+        raise ValueError(f"{path}: data row {row} has a non-finite value (NaN or inf): {data[row]}. "
+                         "All values must be finite numbers.")
+    # A repeated first row closes the loop; near-duplicate rows are left out as in route files.
+    data = data[route_geometry_rows(data[:, 0:2])]
     return Track(
         data[:, 0:2],
         data[:, 3],
@@ -212,6 +231,37 @@ def _read_csv(path: Path) -> Track:
         description=f"centre-line CSV {path.name}",
         source=str(path),
     )
+
+
+def route_geometry_rows(centre: np.ndarray, tolerance: float = ROUTE_TOLERANCE) -> np.ndarray:
+    """Return the indices of the rows of a closed route that define its geometry.
+
+    Walks the rows in order and keeps a row only when its centre point is at least ``tolerance``
+    from the last kept one; a final row within ``tolerance`` of the first (the closing row, a
+    repeat of row 0) is left out too. This removes exact and near duplicates and tiny steps
+    backwards (a row a few millimetres behind its predecessor), which would otherwise make the
+    centre polyline fold back onto itself; the rows between two kept rows lie within
+    ``tolerance`` of the first of them, so the geometry moves by less than that.
+
+    >>> route_geometry_rows(np.array([[0, 0], [1, 0], [0.998, 0], [2, 0], [2, 1], [0, 1], [0, 0]]))
+    array([0, 1, 3, 4, 5])
+
+    Args:
+        centre: Centre points in file order, shape (N, 2) [m].
+        tolerance: Smallest step [m] between kept rows.
+
+    Returns:
+        Increasing row indices, shape (M,), starting with 0.
+    """
+    keep = [0]
+    last = centre[0]
+    for i in range(1, len(centre)):
+        if np.hypot(*(centre[i] - last)) >= tolerance:
+            keep.append(i)
+            last = centre[i]
+    while len(keep) > 1 and np.hypot(*(centre[keep[-1]] - centre[0])) < tolerance:
+        keep.pop()
+    return np.asarray(keep, dtype=np.intp)
 
 
 def _scaled(track: Track, scale: Any) -> Track:

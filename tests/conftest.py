@@ -68,6 +68,30 @@ def box_penetration(corners_a: np.ndarray, corners_b: np.ndarray) -> np.ndarray:
     return np.maximum(depth, 0.0)
 
 
+def ellipse_route_rows(rows: int = 71, a: float = 3.0, b: float = 1.8,
+                       half_width: float = 0.38) -> np.ndarray:
+    """DeepRacer route rows (rows, 6) of a CCW ellipse, closing row repeated (a narrow,
+    re:Invent 2018-sized loop: 71 rows, 0.76 m wide, smallest radius b^2 / a = 1.08 m)."""
+    t = np.linspace(0.0, 2.0 * math.pi, rows - 1, endpoint=False)
+    centre = np.stack([a * np.cos(t), b * np.sin(t)], axis=1)
+    tangent = np.stack([-a * np.sin(t), b * np.cos(t)], axis=1)
+    normal = np.stack([-tangent[:, 1], tangent[:, 0]], axis=1)
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    out = np.concatenate([centre, centre + half_width * normal, centre - half_width * normal], 1)
+    return np.vstack([out, out[:1]])
+
+
+def with_route_slips(rows: np.ndarray, back_row: int, duplicate_row: int) -> np.ndarray:
+    """Copy of route ``rows`` with the drawing slips of the 2019-era re:Invent 2018 file: row
+    ``back_row`` moved to 2 mm behind row ``back_row - 1`` (a step backwards along the route),
+    and row ``duplicate_row`` a near-duplicate of its predecessor (0.3 mm away)."""
+    out = rows.copy()
+    step = rows[back_row, :2] - rows[back_row - 1, :2]
+    out[back_row] = rows[back_row - 1] - np.tile(0.002 * step / np.linalg.norm(step), 3)
+    out[duplicate_row] = rows[duplicate_row - 1] + np.tile([0.0003, 0.0], 3)
+    return out
+
+
 @pytest.fixture
 def rng() -> np.random.Generator:
     """A seeded generator (tests never use unseeded randomness)."""

@@ -6,7 +6,9 @@ docs where the two differ:
 - geometry is measured from the "model point" P, 0.14 m ahead of the car's origin
   (``agent_ctrl/constants.py RELATIVE_POSITION_OF_FRONT_OF_CAR``);
 - the centre line C is the polyline through ``track.waypoints`` in driving order (every row,
-  duplicates and the closing row included), projected on as Shapely's ``project`` /
+  duplicates, near-duplicates, tiny backtracks and the closing row included, even where the
+  track's geometry leaves such slips out: ``h2h_racing.track_io.route_geometry_rows``; so
+  ``closest_waypoints`` are the route file's row indices), projected on as Shapely's ``project`` /
   ``interpolate`` do (the nearest point of the polyline; on ties the earlier segment wins);
 - ``progress`` is relative to where the episode started, with the +-50 wrap rule and a cap at
   100 (``agent_ctrl/rollout_agent_ctrl.py``), keeping each car's previous progress;

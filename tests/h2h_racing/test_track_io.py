@@ -3,13 +3,21 @@
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from h2h_racing.track import Track
-from h2h_racing.track_io import TRACK_FORMAT, catalogue, list_tracks, load_track, save_track
+from h2h_racing.track_io import (
+    TRACK_FORMAT,
+    catalogue,
+    list_tracks,
+    load_track,
+    route_geometry_rows,
+    save_track,
+)
 
 SHARED = Path(__file__).resolve().parents[2] / ".." / "shared" / "data"
 DEEPRACER = SHARED / "deepracer_tracks"
@@ -143,6 +151,99 @@ class TestNpy:
         t = load_track(DEEPRACER / "reInvent2019_track.npy")
         assert t.length == pytest.approx(23.12, abs=0.01) and t.waypoints.shape == (155, 2)
         assert t.on_track(t.left_lane).all() and t.on_track(t.right_lane).all()
+
+
+ellipse_route_rows = sys.modules["conftest"].ellipse_route_rows
+with_route_slips = sys.modules["conftest"].with_route_slips
+
+
+class TestRouteSlips:
+    """Route files with the drawing slips DeepRacer raced on (the 2019-era re:Invent 2018 file:
+    71 rows, a 2 mm step backwards, near-duplicate rows) load; real crossings are refused."""
+
+    def test_slips_are_left_out_of_the_geometry_but_every_row_is_a_waypoint(
+            self, tmp_path: Path) -> None:
+        rows = with_route_slips(ellipse_route_rows(), back_row=20, duplicate_row=45)
+        path = tmp_path / "reinvent_2019_era.npy"
+        np.save(path, rows)
+        # The same rows as one Track, slips included, are the old refusal.
+        with pytest.raises(ValueError, match="centre line crosses itself"):
+            Track(rows[:-1, :2], 0.38, 0.38, left_border=rows[:-1, 2:4],
+                  right_border=rows[:-1, 4:6])
+        t = load_track(path)
+        # Every row, exactly as in the file, closing row included.
+        np.testing.assert_array_equal(t.waypoints, rows[:, :2])
+        assert t.waypoints.shape == (71, 2)
+        # Geometry: 70 distinct rows less the backtracked one and the near-duplicate.
+        kept = [i for i in range(70) if i not in (20, 45)]
+        np.testing.assert_array_equal(t.centre, rows[kept, :2])
+        np.testing.assert_array_equal(t.left_border, rows[kept, 2:4])  # CCW: inner = left
+        assert t.width.min() == pytest.approx(0.76)
+        reverse = load_track(path, reverse=True)
+        np.testing.assert_array_equal(reverse.waypoints, rows[::-1, :2])
+
+    def test_params_waypoint_indices_are_file_rows(self, tmp_path: Path) -> None:
+        from h2h_racing.config import CarParams
+        from h2h_racing.deepracer.params import ParamsBuilder
+
+        rows = with_route_slips(ellipse_route_rows(), back_row=20, duplicate_row=45)
+        np.save(tmp_path / "slips.npy", rows)
+        t = load_track(tmp_path / "slips.npy")
+        builder = ParamsBuilder(t, CarParams(), 1)
+        # Half-way between file rows k and k + 1 (after both slips, where geometry vertex
+        # indices are 2 lower than row indices, and before them), on the centre line.
+        for k in (10, 60, 68):
+            mid = 0.5 * (rows[k, :2] + rows[k + 1, :2])
+            heading = np.arctan2(*(rows[k + 1, 1::-1] - rows[k, 1::-1]))
+            back = mid - 0.14 * np.array([np.cos(heading), np.sin(heading)])
+            (p,) = builder.build(position=back[None], yaw=np.array([heading]),
+                                 speed_command=np.ones(1), steering_deg=np.zeros(1),
+                                 start_distance=np.zeros(1), steps=1.0, sim_time=0.0)
+            assert p["closest_waypoints"] == [k, k + 1]
+            assert p["waypoints"] == [tuple(r) for r in rows[:, :2].tolist()]
+
+    def test_route_geometry_rows_by_hand(self) -> None:
+        c = np.array([[0, 0], [1, 0], [0.998, 0], [1.0005, 0.0003], [2, 0], [2, 1], [0, 1],
+                      [0, 0.005], [0, 0]])
+        # Row 2 is 2 mm back, row 3 0.6 mm from row 1, row 7 5 mm from row 0, row 8 = row 0.
+        np.testing.assert_array_equal(route_geometry_rows(c), [0, 1, 4, 5, 6])
+        # At 1 mm, row 2 (2 mm from row 1) stays, and row 3 is 2.5 mm from it; row 7 stays.
+        np.testing.assert_array_equal(route_geometry_rows(c, tolerance=0.001), np.arange(8))
+
+    def test_real_crossings_and_large_backtracks_are_refused(self, tmp_path: Path) -> None:
+        # A figure of eight crosses itself at the origin.
+        t = np.linspace(0, 2 * np.pi, 60, endpoint=False)
+        centre = np.stack([3 * np.sin(t), 1.5 * np.sin(2 * t)], axis=1)
+        rows = np.concatenate([centre, centre + [0, 0.3], centre - [0, 0.3]], axis=1)
+        np.save(tmp_path / "eight.npy", np.vstack([rows, rows[:1]]))
+        with pytest.raises(ValueError, match=r"eight\.npy.*crosses itself"):
+            load_track(tmp_path / "eight.npy")
+        # A step 5 cm backwards is no drawing slip: still refused.
+        rows = ellipse_route_rows()
+        step = rows[20, :2] - rows[19, :2]
+        rows[20] = rows[19] - np.tile(0.05 * step / np.linalg.norm(step), 3)
+        np.save(tmp_path / "back.npy", rows)
+        with pytest.raises(ValueError, match=r"back\.npy.*(crosses itself|reverses direction)"):
+            load_track(tmp_path / "back.npy")
+
+    @needs(DEEPRACER / "reinvent_base.npy")
+    def test_reinvent_2018_at_71_rows_with_its_slips(self, tmp_path: Path) -> None:
+        path = tmp_path / "reinvent_2018_71.npy"
+        np.save(path, reinvent_2018_71_rows(DEEPRACER / "reinvent_base.npy"))
+        t = load_track(path)
+        assert t.waypoints.shape == (71, 2) and len(t.centre) == 68
+        assert t.length == pytest.approx(17.7, abs=0.1)
+
+
+def reinvent_2018_71_rows(source: Path) -> np.ndarray:
+    """The 2019-era re:Invent 2018 route rebuilt for tests: today's 119-row file resampled to 71
+    rows (70 evenly spaced along the centre line + the closing row), with its slips added."""
+    raw = np.load(source)
+    arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(raw[:, :2], axis=0).T))])
+    at = np.linspace(0.0, arc[-1], 71)
+    rows = np.stack([np.interp(at, arc, raw[:, k]) for k in range(6)], axis=1)
+    rows[-1] = rows[0]
+    return with_route_slips(rows, back_row=24, duplicate_row=51)
 
 
 class TestCsv:
