@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 DEFAULT_LEAGUE = "runs/league.sqlite"
+LEAGUE_FILE_HELP = "league file (SQLite; a league run writes runs/leagues/NAME/league.sqlite)"
 
 
 def _names(text: str) -> tuple[str, ...]:
@@ -37,7 +38,7 @@ def _backend(args: argparse.Namespace) -> Any:
 def _add_backend_args(parser: argparse.ArgumentParser, default: str) -> None:
     parser.add_argument("--backend", default=default, choices=["inprocess", "local", "ray"],
                         help="where races and learners run: this process, local worker "
-                             f"processes, or Ray (needs h2h-racing[ray]); default {default}")
+                             "processes, or Ray (needs h2h-racing[ray])")
     parser.add_argument("--workers", type=int, default=None,
                         help="worker processes (local) or CPUs of a local Ray (default: all)")
     parser.add_argument("--address", default=None,
@@ -246,16 +247,19 @@ def add_commands(sub: Any) -> None:
     tour = sub.add_parser("tournament", help="round robin or Swiss tournament; prints ratings")
     tour.add_argument("--players", type=_names, required=True,
                       help="comma-separated drivers, shipped policies or policy.pt files")
-    tour.add_argument("--tracks", type=_names, default=("speedway",),
+    tour.add_argument("--tracks", type=_names, default="speedway",
                       help="comma-separated tracks")
     tour.add_argument("--races", type=int, default=2,
                       help="seeds per pairing and track (each raced in both seat orders)")
-    tour.add_argument("--laps", type=int, default=2)
+    tour.add_argument("--laps", type=int, default=2, help="laps per race")
     tour.add_argument("--field-races", type=int, default=0,
                       help="seeds of races with every player on the grid (every rotation)")
-    tour.add_argument("--schedule", default="round_robin", choices=["round_robin", "swiss"])
+    tour.add_argument("--schedule", default="round_robin", choices=["round_robin", "swiss"],
+                      help="every pairing (round_robin) or rounds of pairings of players with "
+                           "similar scores (swiss, for large fields)")
     tour.add_argument("--rounds", type=int, default=0, help="Swiss rounds (0: log2(P) + 1)")
-    tour.add_argument("--seed", type=int, default=0)
+    tour.add_argument("--seed", type=int, default=0,
+                      help="first seed of the races' start points")
     tour.add_argument("--name", default="default", help="tournament name in the league file")
     tour.add_argument("--anchor", default=None,
                       help="player rated 1000 (default: racing_line when it plays)")
@@ -271,22 +275,24 @@ def add_commands(sub: Any) -> None:
                             "(the 30-minute league that made the best racer's recipe) or smoke "
                             "(a one-minute look)")
     train.add_argument("--out", default=None, help="league folder (default runs/leagues/NAME)")
-    train.add_argument("--minutes", type=float, default=None, help="override the time budget")
-    train.add_argument("--rounds", type=int, default=None, help="override the round cap")
+    train.add_argument("--minutes", type=float, default=None,
+                       help="override the time budget (default: the config's minutes)")
+    train.add_argument("--rounds", type=int, default=None,
+                       help="override the round cap (default: the config's max_rounds)")
     _add_backend_args(train, "local")
     train.set_defaults(func=_cmd_league_train)
     table = lsub.add_parser("table", help="print the standings of a league file")
-    table.add_argument("--league", default=DEFAULT_LEAGUE)
+    table.add_argument("--league", default=DEFAULT_LEAGUE, help=LEAGUE_FILE_HELP)
     table.add_argument("--context", default=None,
                        help="only matches whose context starts with this (e.g. tournament:x)")
     table.add_argument("--anchor", default="racing_line", help="player rated 1000")
     table.add_argument("--boot", type=int, default=200, help="bootstrap resamples")
     table.set_defaults(func=_cmd_league_table)
     plot = lsub.add_parser("plot", help="PNGs of ratings over training and the win matrix")
-    plot.add_argument("--league", default=DEFAULT_LEAGUE)
+    plot.add_argument("--league", default=DEFAULT_LEAGUE, help=LEAGUE_FILE_HELP)
     plot.add_argument("--context", default=None, help="matches of the win matrix (prefix)")
     plot.add_argument("--out", default="plots", help="output folder")
     plot.add_argument("--players", type=int, default=16,
                       help="rows of the win matrix: the N best-rated players plus the scripted "
-                           "anchors (default 16)")
+                           "anchors")
     plot.set_defaults(func=_cmd_league_plot)

@@ -1,0 +1,60 @@
+"""Help pages of the ``h2h-racing`` command: every option shows its default, every
+subcommand opens with a description line.
+
+``ArgumentParser`` below is the parser class of the command and, through ``add_subparsers``,
+of every subcommand, so a subcommand added anywhere (``h2h_racing.league.cli``) gets the
+same help without passing a formatter around.
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+
+class HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Appends ``(default: X)`` to an option's help when it has a default worth showing.
+
+    Unlike ``argparse.ArgumentDefaultsHelpFormatter`` it says nothing for ``None`` and
+    ``False`` defaults (an option that is off, or whose help says what happens without it)
+    and keeps a help text that already names its default.
+    """
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        # Identity, not ==: 0 == False, and a 0 default is worth showing.
+        if (action.option_strings and "default" not in text
+                and not any(action.default is off for off in (None, False, argparse.SUPPRESS))):
+            text += " (default: %(default)s)"
+        return text
+
+
+class _SubParsersAction(argparse._SubParsersAction):  # noqa: SLF001 - argparse's extension point
+    """A subcommand's one-line ``help`` (shown in its parent's list) is also the description
+    line of its own help page, unless it has its own ``description``."""
+
+    def add_parser(self, name: str, **kwargs: Any) -> argparse.ArgumentParser:
+        text = kwargs.get("help")
+        if text and "description" not in kwargs:
+            kwargs["description"] = text[:1].upper() + text[1:] + "."
+        return super().add_parser(name, **kwargs)
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """``argparse.ArgumentParser`` with ``HelpFormatter`` and described subcommands."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("formatter_class", HelpFormatter)
+        super().__init__(*args, **kwargs)
+        self.register("action", "parsers", _SubParsersAction)
+
+
+def walk_parsers(parser: argparse.ArgumentParser, prefix: str = ""
+                 ) -> list[tuple[str, argparse.ArgumentParser]]:
+    """``(command, parser)`` for ``parser`` and every subcommand below it, depth first."""
+    found = [(prefix or parser.prog, parser)]
+    for action in parser._actions:  # noqa: SLF001 - argparse keeps subparsers only here
+        if isinstance(action, argparse._SubParsersAction):  # noqa: SLF001
+            for name, child in action.choices.items():
+                found += walk_parsers(child, f"{prefix or parser.prog} {name}")
+    return found
