@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from h2h_racing.extras import missing_extra
+
 DPI = 100
 """Dots per inch of the figures: ``size`` in pixels is ``figsize * DPI``."""
 
@@ -21,8 +23,7 @@ def _pyplot() -> Any:
     try:
         import matplotlib
     except ImportError as error:
-        raise ImportError("league plots need matplotlib: pip install 'h2h-racing[league]'"
-                          ) from error
+        raise missing_extra("league", "league plots", error) from error
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 

@@ -33,11 +33,16 @@ from typing import Any, Literal
 os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl imports GitPython
 
 import numpy as np  # noqa: E402
-import torch  # noqa: E402
 
-from rsl_rl.algorithms import PPO  # noqa: E402
-from rsl_rl.models import MLPModel  # noqa: E402
-from rsl_rl.modules.distribution import GaussianDistribution  # noqa: E402
+from h2h_racing.extras import missing_extra  # noqa: E402
+
+try:
+    import torch  # noqa: E402
+    from rsl_rl.algorithms import PPO  # noqa: E402
+    from rsl_rl.models import MLPModel  # noqa: E402
+    from rsl_rl.modules.distribution import GaussianDistribution  # noqa: E402
+except ImportError as _error:
+    raise missing_extra("train", "training", _error) from None
 
 from h2h_racing.config import EnvConfig, RaceRules, RewardConfig  # noqa: E402
 from h2h_racing.league.vec_env import OBSERVATIONS, PoolOpponent, RacingVecEnv  # noqa: E402
@@ -557,7 +562,7 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
                                     device="cpu")
         # The teacher is the policy file's actor: same model config, so its weights (and its
         # observation normaliser's statistics) load strictly.
-        runner.alg.teacher.load_state_dict(teacher["actor_state_dict"])
+        _load_actor(runner.alg.teacher, teacher, f"teacher {config.teacher!r}")
         runner.alg.teacher_loaded = True
     if config.init is not None:
         load_init(runner, config.init)
@@ -856,12 +861,47 @@ def load_init(runner: Any, init: str) -> None:
     from h2h_racing.policies.trained import load_policy_payload
 
     payload = load_policy_payload(init)
-    try:
-        runner.alg.get_policy().load_state_dict(payload["actor_state_dict"])
-    except RuntimeError as err:
-        raise ValueError(f"init policy {init!r} does not fit the actor being trained (hidden "
-                         f"sizes or observations differ): {err}") from None
+    _load_actor(runner.alg.get_policy(), payload, f"init policy {init!r}")
     project_std(runner.alg.get_policy())
+
+
+def _load_actor(model: Any, payload: dict[str, Any], what: str) -> None:
+    """Load policy dict ``payload``'s actor weights into ``model`` (strictly), or raise a
+    ``ValueError`` that says ``what`` does not fit and which tensors differ."""
+    try:
+        model.load_state_dict(payload["actor_state_dict"])
+    except (RuntimeError, TypeError, ValueError) as err:
+        raise ValueError(f"{what} does not fit the actor being trained (hidden sizes or "
+                         f"observations differ): {' '.join(str(err).split())}") from None
+
+
+RUNNER_STATE_KEYS = {"actor_state_dict": dict, "critic_state_dict": dict,
+                     "optimizer_state_dict": dict, "iter": int}
+"""What rsl-rl's ``OnPolicyRunner.save`` writes (``PPO.save()`` plus ``iter`` and ``infos``)
+and ``load_runner_state`` needs."""
+
+
+def load_runner_state(runner: Any, path: str | Path) -> None:
+    """Load a ``runner.pt`` written by rsl-rl's ``OnPolicyRunner.save`` into ``runner``, as
+    its ``load`` does (actor, critic, optimizer, iteration), but weights-only: rsl-rl's own
+    ``load`` unpickles with ``weights_only=False``, which runs whatever code the file holds.
+
+    Raises:
+        FileNotFoundError, ValueError: The file is missing, unreadable, unsafe, lacks a key, or
+            its tensors do not fit ``runner``'s networks; the message names the file.
+    """
+    from h2h_racing.policies.weights import WeightsFileError, check_keys, load_weights
+
+    expected = ("a league learner's rsl-rl runner state (runner.pt: actor, critic and "
+                "optimizer state dicts and the iteration, as `league train` writes it)")
+    state = check_keys(load_weights(path, expected), RUNNER_STATE_KEYS, str(path), expected)
+    try:
+        runner.alg.load(state, None, True)
+    except (RuntimeError, TypeError, ValueError, KeyError) as err:
+        raise WeightsFileError(f"{path}: does not fit this league's learner (its network "
+                               f"sizes or observations differ): {type(err).__name__}: "
+                               f"{' '.join(str(err).split())}") from None
+    runner.current_learning_iteration = state["iter"]
 
 
 def load_teacher(config: TrainConfig) -> dict[str, Any]:

@@ -63,9 +63,14 @@ import numpy.typing as npt
 
 os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl imports GitPython
 
-import torch  # noqa: E402
-from rsl_rl.env import VecEnv  # noqa: E402
-from tensordict import TensorDict  # noqa: E402
+from h2h_racing.extras import missing_extra  # noqa: E402
+
+try:
+    import torch  # noqa: E402
+    from rsl_rl.env import VecEnv  # noqa: E402
+    from tensordict import TensorDict  # noqa: E402
+except ImportError as _error:
+    raise missing_extra("train", "training", _error) from None
 
 from h2h_racing import rewards  # noqa: E402
 from h2h_racing.config import EnvConfig  # noqa: E402

@@ -1,19 +1,22 @@
 """Trained policies as drivers: load a ``policy.pt`` written by ``h2h_racing.league.train``.
 
 A policy file holds the actor's weights and the env and observation config it was trained
-with. It loads with ``torch.load(weights_only=True)`` (no pickled code runs). The driver checks
-that the env it drives gives the same observation layout as training did, and raises a clear
-``ValueError`` when it does not.
+with. It loads weights-only (``h2h_racing.policies.weights``: no pickled code runs) and its
+keys are checked. The driver checks that the env it drives gives the same observation layout
+as training did, and that the weights fit the actor, and raises a clear ``ValueError`` when
+they do not.
 """
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
+
+from h2h_racing.extras import missing_extra
+from h2h_racing.policies.weights import WeightsFileError, check_keys, load_weights
 
 if TYPE_CHECKING:
     from h2h_racing.core import RaceCore
@@ -23,6 +26,13 @@ POLICY_FORMAT = "h2h-racing-policy/1"
 TRAINED_DIR = Path(__file__).resolve().parent / "trained"
 """Shipped policies: ``trained/<name>/policy.pt`` with a ``CARD.md`` beside it."""
 _OBSERVATION_KEYS = ("opponent_slots", "obstacle_slots")
+_EXPECTED = f"an h2h-racing policy file (format {POLICY_FORMAT!r}, as `h2h-racing train` writes)"
+_PAYLOAD_KEYS: dict[str, type | tuple[type, ...]] = {
+    "format": str, "actor_state_dict": dict, "actor_cfg": dict, "obs_groups": (list, tuple),
+    "observations": str, "env_config": dict}
+"""Keys a policy dict must hold, with their types (``train_config`` and ``training`` are
+informative)."""
+_ACTOR_CLASSES = ("MLPModel", "CNNModel")
 
 
 def shipped_policies() -> dict[str, Path]:
@@ -34,30 +44,37 @@ def shipped_policies() -> dict[str, Path]:
 
 def load_policy_payload(policy: str | Path) -> dict[str, Any]:
     """Load the dict of a policy file: ``policy`` is a shipped policy's name or a ``policy.pt``
-    path (``torch.load(weights_only=True)``; the format is checked).
+    path (loaded weights-only; the format and keys are checked).
 
     Raises:
         FileNotFoundError: ``policy`` is neither a shipped name nor a file.
-        ValueError: The file is not an h2h-racing policy file.
+        ValueError: The file is not an h2h-racing policy file (``WeightsFileError``).
     """
-    os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
-    import torch
-
     shipped = shipped_policies()
     path = shipped.get(str(policy), Path(policy))
     if not path.is_file():
         raise FileNotFoundError(f"policy {str(policy)!r} is neither a shipped policy "
                                 f"({', '.join(shipped)}) nor a policy.pt file")
-    return _checked(torch.load(path, weights_only=True, map_location="cpu"), str(path))
+    return _checked(load_weights(path, _EXPECTED), str(path))
 
 
 def _checked(payload: Any, source: str) -> dict[str, Any]:
-    """``payload`` if it is a policy dict (its ``format`` is ``POLICY_FORMAT``), else a
-    ``ValueError`` naming ``source``."""
+    """``payload`` if it is a policy dict (format ``POLICY_FORMAT``, every key of
+    ``_PAYLOAD_KEYS``), else a ``WeightsFileError`` naming ``source``."""
     if not isinstance(payload, dict) or payload.get("format") != POLICY_FORMAT:
         found = payload.get("format") if isinstance(payload, dict) else type(payload).__name__
-        raise ValueError(f"{source}: not an h2h-racing policy file (expected format "
-                         f"{POLICY_FORMAT!r}, got {found!r})")
+        raise WeightsFileError(f"{source}: not an h2h-racing policy file (expected format "
+                               f"{POLICY_FORMAT!r}, got {found!r})")
+    check_keys(payload, _PAYLOAD_KEYS, source, _EXPECTED)
+    env_keys: dict[str, type] = dict.fromkeys(_OBSERVATION_KEYS, int)
+    if payload["observations"] in ("camera", "camera_only"):
+        env_keys["camera"] = dict
+    check_keys(payload["env_config"], env_keys, f"{source}: env_config",
+               "the env config the policy was trained with")
+    if payload["actor_cfg"].get("class_name") not in _ACTOR_CLASSES:
+        raise WeightsFileError(f"{source}: actor_cfg's class_name is "
+                               f"{payload['actor_cfg'].get('class_name')!r}, expected one of "
+                               f"{_ACTOR_CLASSES}")
     return payload
 
 
@@ -70,13 +87,10 @@ class TrainedPolicy:
     """
 
     def __init__(self, path: str | Path, name: str | None = None) -> None:
-        os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
-        import torch
-
         path = Path(path)
         if not path.is_file():
             raise FileNotFoundError(f"policy file not found: {path.resolve()}")
-        payload = torch.load(path, weights_only=True, map_location="cpu")
+        payload = load_weights(path, _EXPECTED)
         self._setup(payload, name or path.parent.name or path.stem, str(path))
         self.path: Path | None = path
 
@@ -126,17 +140,29 @@ class TrainedPolicy:
             self._actor = self._build_actor(core)
 
     def _build_actor(self, core: RaceCore) -> Any:
-        import torch
-        from rsl_rl.models import CNNModel, MLPModel
-        from tensordict import TensorDict
+        try:
+            import torch
+            from rsl_rl.models import CNNModel, MLPModel
+            from tensordict import TensorDict
+        except ImportError as error:
+            raise missing_extra("train", "trained drivers", error) from None
 
         actor_cfg = dict(self.payload["actor_cfg"])
         model_class = {"MLPModel": MLPModel, "CNNModel": CNNModel}[actor_cfg.pop("class_name")]
         example = TensorDict({key: torch.as_tensor(value[:1])
                               for key, value in self._observe(core, 0).items()}, batch_size=[1])
-        model = model_class(example, {"actor": list(self.payload["obs_groups"])}, "actor", 2,
-                            **actor_cfg)
-        model.load_state_dict(self.payload["actor_state_dict"])
+        try:
+            model = model_class(example, {"actor": list(self.payload["obs_groups"])}, "actor",
+                                2, **actor_cfg)
+            model.load_state_dict(self.payload["actor_state_dict"])
+        except (RuntimeError, TypeError, ValueError, KeyError) as error:
+            # Weights of another size (or another actor config) than this env's observations
+            # give: torch's message lists the tensors that differ.
+            raise WeightsFileError(
+                f"{self.source}: the policy's actor does not fit its own config and this env's "
+                f"observations (observations={self.observations!r}, obs_groups="
+                f"{list(self.payload['obs_groups'])}): {type(error).__name__}: "
+                f"{' '.join(str(error).split())}") from None
         model.eval()
         return model
 

@@ -4,7 +4,12 @@ A reward file is a Python module defining ``reward_function(params)``. DeepRacer
 ``float(reward_function(copy.deepcopy(params)))`` (simapp ``agent_ctrl/rollout_agent_ctrl.py``)
 and stops the job with ``RewardFunctionError`` when the result is not a finite number; its
 validator also requires ``-1e5 <= reward <= 1e5`` (``reward_func_validator``), which we
-report as a warning.
+report as a warning. We are stricter than ``float()`` in one way: the result must be a real
+number (``int``, ``float`` or a numpy number), so that a string such as ``"1.0"`` or a bool
+(``return params["all_wheels_on_track"]`` is a mistake) is an error and not a silent cast.
+
+Anything the user's code raises, ``sys.exit()`` included, becomes a ``RewardFunctionError``
+naming the file, the car and the step; only ``KeyboardInterrupt`` (Ctrl-C) passes through.
 
 Real reward functions keep module-level state (previous steps, speeds), so each car gets its
 own module instance: the file is executed once per car under a unique module name.
@@ -15,6 +20,8 @@ from __future__ import annotations
 import importlib.util
 import itertools
 import math
+import numbers
+import reprlib
 import sys
 import warnings
 from collections.abc import Callable
@@ -49,15 +56,22 @@ def _load_function(path: Path, car: int) -> Callable[[dict[str, Any]], Any]:
     sys.modules[name] = module
     try:
         spec.loader.exec_module(module)
-    except Exception as exc:
+    except KeyboardInterrupt:
+        raise
+    except BaseException as exc:  # sys.exit() in the file too: an error, not a silent exit
         del sys.modules[name]
         raise RewardFunctionError(f"importing reward function file {str(path)!r} (car {car}) "
-                                  f"failed: {type(exc).__name__}: {exc}") from exc
+                                  f"failed: {_describe(exc)}") from exc
     function = getattr(module, "reward_function", None)
     if not callable(function):
         raise TypeError(f"{str(path)!r} must define a function reward_function(params); "
                          f"got {type(function).__name__} for reward_function")
     return function
+
+
+def _describe(exc: BaseException) -> str:
+    """``SystemExit: 3``, or the bare type name when the exception has no message."""
+    return f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
 
 
 def _summary(params: dict[str, Any]) -> str:
@@ -107,18 +121,24 @@ class DeepRacerReward:
         """Return car ``car``'s reward for ``params`` (the function gets a deep copy).
 
         Raises:
-            RewardFunctionError: The function raised, or returned a non-number, NaN or inf;
+            RewardFunctionError: The function raised (``sys.exit()`` included), or returned
+                a non-number (a str or bool too), NaN, inf or an int too large for a float;
                 the message names the file, the car, the step and the params.
         """
         try:
             value = self.functions[car](copy_params(params))
-        except Exception as exc:
-            raise self._error(car, params, f"raised {type(exc).__name__}: {exc}") from exc
+        except KeyboardInterrupt:
+            raise
+        except BaseException as exc:  # sys.exit() too: an error, not a silent end of the run
+            raise self._error(car, params, f"raised {_describe(exc)}") from exc
+        if not isinstance(value, numbers.Real) or isinstance(value, bool):
+            raise self._error(car, params, f"returned {reprlib.repr(value)} "
+                                           f"({type(value).__name__}), expected a number")
         try:
             reward = float(value)
-        except (TypeError, ValueError) as exc:
-            raise self._error(car, params, f"returned {value!r} ({type(value).__name__}), "
-                                           f"expected a number") from exc
+        except OverflowError:
+            raise self._error(car, params, f"returned {reprlib.repr(value)}, an int too large "
+                                           f"for a float, expected a finite number") from None
         if not math.isfinite(reward):
             raise self._error(car, params, f"returned {reward!r}, expected a finite number")
         if abs(reward) > REWARD_LIMIT and not self._warned[car]:
