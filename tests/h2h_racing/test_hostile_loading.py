@@ -1,0 +1,371 @@
+"""Hostile files and code: nothing the project reads may run code, and bad files, reward
+functions and missing extras get clear errors (issue 17, "Security" and "Bad input").
+
+Every load path gets a crafted file: a torch checkpoint whose pickle, when unpickled, touches
+a marker file (as a real attack would run ``os.system``). The marker must stay absent, and the
+error must name the file and must not repeat torch's advice to load with
+``weights_only=False``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import pathlib
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+torch = pytest.importorskip("torch")
+
+from h2h_racing.cli import main  # noqa: E402
+from h2h_racing.deepracer import DeepRacerReward, RewardFunctionError  # noqa: E402
+from h2h_racing.policies.trained import (  # noqa: E402
+    POLICY_FORMAT,
+    TrainedPolicy,
+    load_policy_payload,
+    shipped_policies,
+)
+from h2h_racing.policies.weights import WeightsFileError, load_weights  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[2]
+UNSAFE_ADVICE = "weights_only=False"
+
+
+class _Touch:
+    """Unpickles as ``Path(marker).touch()``: stands in for ``os.system`` in a crafted file."""
+
+    def __init__(self, marker: Path) -> None:
+        self.marker = marker
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (pathlib.Path.touch, (pathlib.Path(self.marker),))
+
+
+def _crafted_policy(tmp_path: Path, name: str = "evil.pt") -> tuple[Path, Path]:
+    """A ``policy.pt`` lookalike whose weights unpickle as a command; returns (file, marker)."""
+    marker = tmp_path / f"{name}.RAN"
+    path = tmp_path / name
+    torch.save({"format": POLICY_FORMAT, "actor_state_dict": _Touch(marker), "actor_cfg": {},
+                "obs_groups": ["policy"], "observations": "state",
+                "env_config": {"opponent_slots": 1, "obstacle_slots": 0}}, path)
+    return path, marker
+
+
+def _state_policy() -> Path:
+    """A shipped state-observation policy (any will do)."""
+    for path in shipped_policies().values():
+        if torch.load(path, weights_only=True)["observations"] == "state":
+            return path
+    pytest.skip("no shipped state-observation policy")
+
+
+def _assert_refused(text: str, path: Path, marker: Path) -> None:
+    assert not marker.exists(), "the crafted file's code ran"
+    assert str(path) in text and "refused" in text, text
+    assert UNSAFE_ADVICE not in text
+
+
+def _cli_error(argv: list[str], capsys: pytest.CaptureFixture[str]) -> str:
+    """Run ``h2h-racing ARGV`` in process; it must fail cleanly (status 2); return stderr."""
+    assert main(argv) == 2
+    return capsys.readouterr().err
+
+
+def test_the_crafted_file_runs_code_when_unpickled(tmp_path: Path) -> None:
+    """The payload is live: the unsafe load the project used to do runs it."""
+    path, marker = _crafted_policy(tmp_path)
+    torch.load(path, weights_only=False)
+    assert marker.exists()
+
+
+class TestCraftedFilesAreRefused:
+    """Every path that loads a file, with a crafted pickle."""
+
+    def test_loader(self, tmp_path: Path) -> None:
+        path, marker = _crafted_policy(tmp_path)
+        with pytest.raises(WeightsFileError) as info:
+            load_weights(path, "a test file")
+        _assert_refused(str(info.value), path, marker)
+        assert info.value.__cause__ is None and info.value.__suppress_context__
+
+    def test_race(self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+        path, marker = _crafted_policy(tmp_path)
+        err = _cli_error(["race", "--track", "oval", "--laps", "1", "--drivers",
+                          f"{path},racing_line", "--no-progress"], capsys)
+        _assert_refused(err, path, marker)
+
+    def test_evaluate(self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+        path, marker = _crafted_policy(tmp_path)
+        err = _cli_error(["evaluate", "--policy", str(path), "--track", "oval",
+                          "--episodes", "1"], capsys)
+        _assert_refused(err, path, marker)
+        err = _cli_error(["evaluate", "--policy", "racing_line", "--against", str(path),
+                          "--track", "oval", "--races", "2", "--laps", "1"], capsys)
+        _assert_refused(err, path, marker)
+
+    @pytest.mark.parametrize("flags", [["--init"], ["--obs", "camera_only", "--teacher"],
+                                       ["--opponents"]], ids=lambda f: f[-1])
+    def test_train(self, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                   flags: list[str]) -> None:
+        path, marker = _crafted_policy(tmp_path)
+        err = _cli_error(["train", "--track", "oval", *flags, str(path), "--iterations", "1",
+                          "--envs", "2", "--out", str(tmp_path / "run"), "--no-onnx"], capsys)
+        _assert_refused(err, path, marker)
+
+    def test_tournament(self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+        path, marker = _crafted_policy(tmp_path)
+        err = _cli_error(["tournament", "--players", f"{path},racing_line", "--tracks", "oval",
+                          "--races", "1", "--laps", "1", "--league",
+                          str(tmp_path / "league.sqlite"), "--backend", "inprocess"], capsys)
+        _assert_refused(err, path, marker)
+
+    def test_league_resume(self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+        """A copied league folder whose learner state is a crafted ``runner.pt``."""
+        folder = tmp_path / "league"
+        state = folder / "learners" / "main" / "runner.pt"
+        state.parent.mkdir(parents=True)
+        marker = tmp_path / "RAN"
+        torch.save({"actor_state_dict": _Touch(marker), "critic_state_dict": {},
+                    "optimizer_state_dict": {}, "iter": 1, "infos": None}, state)
+        config = tmp_path / "tiny.toml"
+        config.write_text(textwrap.dedent(f"""\
+            name = "tiny"
+            tracks = ["oval"]
+            init = "{_state_policy()}"
+            anchors = ["racing_line"]
+            max_rounds = 1
+            iterations_per_round = 1
+            num_envs = 2
+            num_steps_per_env = 4
+            eval_races = 1
+            placement_races = 1
+            laps = 1
+
+            [[learners]]
+            name = "main"
+            role = "main"
+            """))
+        err = _cli_error(["league", "train", "--config", str(config), "--out", str(folder),
+                          "--backend", "inprocess"], capsys)
+        _assert_refused(err, state, marker)
+
+
+class TestLearnerStateRoundTrip:
+    """``runner.pt`` as rsl-rl writes it loads weights-only into a fresh learner."""
+
+    def test_saved_state_resumes(self, tmp_path: Path) -> None:
+        from h2h_racing.league import selfplay
+        from h2h_racing.league.selfplay import LeagueConfig, TrainJob, train_round
+        from h2h_racing.league.train import load_runner_state
+
+        config = LeagueConfig(tracks=("oval",), anchors=("racing_line",), init=None,
+                              iterations_per_round=1, num_envs=2, num_steps_per_env=4)
+        folder = tmp_path / "main"
+        job = TrainJob(learner="round_trip", role="main", folder=str(folder), config=config,
+                       round=0, track="oval", opponents=("racing_line",) * 2, reset=False,
+                       seed=0)
+        try:
+            train_round(job)
+            saved = selfplay._RUNNERS.pop("round_trip")[1]
+            train_round(dataclasses.replace(job, round=5))  # not cached: loads runner.pt
+            resumed = selfplay._RUNNERS["round_trip"][1]
+        finally:
+            selfplay._RUNNERS.pop("round_trip", None)
+        assert resumed is not saved
+        # The saved state's iteration count, plus the one round trained after loading it.
+        assert resumed.current_learning_iteration == saved.current_learning_iteration + 1
+        # A state of another size is refused, naming the file.
+        state = torch.load(folder / "runner.pt", weights_only=True)
+        first = next(iter(state["critic_state_dict"]))
+        state["critic_state_dict"][first] = torch.zeros(3, 3)
+        torch.save(state, folder / "runner.pt")
+        with pytest.raises(WeightsFileError, match="does not fit this league's learner") as info:
+            load_runner_state(resumed, folder / "runner.pt")
+        assert str(folder / "runner.pt") in str(info.value)
+        del state["iter"]
+        torch.save(state, folder / "runner.pt")
+        with pytest.raises(WeightsFileError, match=r"missing key\(s\) \['iter'\]"):
+            load_runner_state(resumed, folder / "runner.pt")
+
+
+class TestBrokenPolicyFiles:
+    """Empty, truncated, foreign and incomplete policy files, and weights of the wrong size."""
+
+    def test_empty_and_truncated(self, tmp_path: Path) -> None:
+        empty = tmp_path / "empty.pt"
+        empty.write_bytes(b"")
+        with pytest.raises(WeightsFileError, match="empty") as info:
+            TrainedPolicy(empty)
+        assert str(empty) in str(info.value) and "h2h-racing policy file" in str(info.value)
+        data = _state_policy().read_bytes()
+        for size in (1, 100, len(data) // 2, len(data) - 1):
+            cut = tmp_path / f"cut_{size}.pt"
+            cut.write_bytes(data[:size])
+            with pytest.raises(WeightsFileError, match="truncated, corrupt") as info:
+                load_policy_payload(cut)
+            assert str(cut) in str(info.value)
+
+    def test_foreign_files(self, tmp_path: Path) -> None:
+        text = tmp_path / "notes.pt"
+        text.write_text("not a checkpoint\n")
+        with pytest.raises(WeightsFileError, match="truncated, corrupt"):
+            TrainedPolicy(text)
+        tensor = tmp_path / "tensor.pt"
+        torch.save(torch.zeros(3), tensor)
+        with pytest.raises(WeightsFileError, match="not an h2h-racing policy file"):
+            TrainedPolicy(tensor)
+
+    def test_missing_keys(self, tmp_path: Path) -> None:
+        payload = torch.load(_state_policy(), weights_only=True)
+        for key in ("actor_state_dict", "env_config", "obs_groups"):
+            path = tmp_path / f"no_{key}.pt"
+            torch.save({k: v for k, v in payload.items() if k != key}, path)
+            with pytest.raises(WeightsFileError, match=rf"missing key\(s\) \['{key}'\]") as info:
+                TrainedPolicy(path)
+            assert str(path) in str(info.value)
+        path = tmp_path / "no_slots.pt"
+        env = {k: v for k, v in payload["env_config"].items() if k != "opponent_slots"}
+        torch.save({**payload, "env_config": env}, path)
+        with pytest.raises(WeightsFileError, match="opponent_slots"):
+            TrainedPolicy(path)
+        path = tmp_path / "bad_class.pt"
+        torch.save({**payload, "actor_cfg": {**payload["actor_cfg"], "class_name": "Evil"}},
+                   path)
+        with pytest.raises(WeightsFileError, match="class_name is 'Evil'"):
+            TrainedPolicy(path)
+
+    def test_weights_of_the_wrong_size(self, tmp_path: Path) -> None:
+        from h2h_racing.policies import race_core
+
+        payload = torch.load(_state_policy(), weights_only=True)
+        weights = dict(payload["actor_state_dict"])
+        key = next(k for k, v in weights.items() if v.ndim == 2)
+        weights[key] = torch.zeros(weights[key].shape[0], weights[key].shape[1] + 3)
+        path = tmp_path / "wide.pt"
+        torch.save({**payload, "actor_state_dict": weights}, path)
+        driver = TrainedPolicy(path)
+        core = race_core("oval", num_cars=2, num_envs=1,
+                         opponent_slots=payload["env_config"]["opponent_slots"],
+                         obstacle_slots=payload["env_config"]["obstacle_slots"])
+        with pytest.raises(WeightsFileError, match="does not fit") as info:
+            driver.reset(core)
+        assert str(path) in str(info.value) and key in str(info.value)
+
+    def test_cli_names_the_file(self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+        empty = tmp_path / "empty.pt"
+        empty.write_bytes(b"")
+        err = _cli_error(["race", "--track", "oval", "--laps", "1", "--drivers",
+                          f"{empty},racing_line", "--no-progress"], capsys)
+        assert str(empty) in err and "Traceback" not in err
+
+
+class TestLeagueNames:
+    """League and learner names name folders: plain names only."""
+
+    @pytest.mark.parametrize("name", ["../escape", "a/b", "..", ".hidden", "", "-x", "a b",
+                                      "/abs"])
+    def test_path_like_names_are_refused(self, name: str) -> None:
+        from h2h_racing.league.selfplay import LeagueConfig, LearnerSpec
+
+        with pytest.raises(ValueError, match="LeagueConfig.name must be a plain name"):
+            LeagueConfig(name=name)
+        with pytest.raises(ValueError, match="learner name must be a plain name"):
+            LearnerSpec(name=name)
+
+    def test_from_toml_and_plain_names(self, tmp_path: Path) -> None:
+        from h2h_racing.league.selfplay import LeagueConfig
+
+        path = tmp_path / "bad.toml"
+        path.write_text('name = "../../outside"\n')
+        with pytest.raises(ValueError, match="plain name"):
+            LeagueConfig.from_toml(path)
+        assert LeagueConfig(name="guided_light-2").name == "guided_light-2"
+
+
+def _reward(tmp_path: Path, body: str) -> DeepRacerReward:
+    path = tmp_path / "reward.py"
+    path.write_text("import sys\n\ndef reward_function(params):\n" + textwrap.indent(body, "    "))
+    return DeepRacerReward(path, 2)
+
+
+class TestHostileRewardFunctions:
+    """What a reward function does or returns ends in a ``RewardFunctionError`` naming the
+    file, the car and the step; only Ctrl-C passes through."""
+
+    @pytest.mark.parametrize("body, what", [
+        ("sys.exit()\n", "raised SystemExit"),
+        ("sys.exit(3)\n", "raised SystemExit: 3"),
+        ("raise GeneratorExit('odd')\n", "raised GeneratorExit: odd"),
+        ("return '1.0'\n", "returned '1.0' (str), expected a number"),
+        ("return True\n", "returned True (bool), expected a number"),
+        ("return 10 ** 400\n", "an int too large for a float"),
+        ("return [1.0]\n", "returned [1.0] (list)"),
+    ], ids=["exit", "exit_3", "generator_exit", "str", "bool", "huge_int", "list"])
+    def test_error_names_file_car_step(self, tmp_path: Path, body: str, what: str) -> None:
+        reward = _reward(tmp_path, body)
+        with pytest.raises(RewardFunctionError) as info:
+            reward(1, {"steps": 7.0})
+        text = str(info.value)
+        assert what in text and str(tmp_path / "reward.py") in text
+        assert "car_1" in text and "at step 7.0" in text
+        assert len(text) < 1000  # the huge int is abbreviated
+
+    def test_exit_while_importing_the_file(self, tmp_path: Path) -> None:
+        path = tmp_path / "reward.py"
+        path.write_text("import sys\nsys.exit(1)\n")
+        with pytest.raises(RewardFunctionError, match=r"importing .*reward\.py.* \(car 0\) "
+                                                       r"failed: SystemExit: 1"):
+            DeepRacerReward(path, 1)
+
+    def test_ctrl_c_passes_through(self, tmp_path: Path) -> None:
+        reward = _reward(tmp_path, "raise KeyboardInterrupt\n")
+        with pytest.raises(KeyboardInterrupt):
+            reward(0, {"steps": 1.0})
+
+    @pytest.mark.parametrize("body", ["return float('nan')\n", "return float('inf')\n",
+                                      "return -float('inf')\n"])
+    def test_non_finite_floats_stay_errors(self, tmp_path: Path, body: str) -> None:
+        with pytest.raises(RewardFunctionError, match="expected a finite number"):
+            _reward(tmp_path, body)(0, {"steps": 1.0})
+
+    def test_numbers_still_pass(self, tmp_path: Path) -> None:
+        import numpy as np
+
+        for value, expected in ((3, 3.0), (np.float32(2.5), 2.5), (np.int64(-4), -4.0)):
+            reward = DeepRacerReward(lambda params, v=value: v, 1)
+            assert reward(0, {"steps": 1.0}) == expected
+
+
+class TestMissingExtras:
+    """Without torch, trained drivers and ``train`` name the extra to install."""
+
+    @pytest.mark.parametrize("argv", [
+        ["race", "--track", "oval", "--laps", "1", "--no-progress", "--drivers",
+         "{policy},racing_line"],
+        ["train", "--track", "oval", "--iterations", "1", "--envs", "2", "--out", "{out}"],
+    ], ids=["race", "train"])
+    def test_without_torch(self, tmp_path: Path, argv: list[str]) -> None:
+        argv = [a.format(policy=_state_policy(), out=tmp_path / "run") for a in argv]
+        # None in sys.modules makes `import torch` fail as if it were not installed.
+        code = ("import sys; sys.modules['torch'] = None; from h2h_racing.cli import main; "
+                f"sys.exit(main({argv!r}))")
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              cwd=tmp_path, timeout=120)
+        assert done.returncode == 2, done.stderr
+        assert 'pip install "h2h-racing[train]"' in done.stderr
+        assert "torch is missing" in done.stderr and "Traceback" not in done.stderr
+
+    def test_one_message_for_every_extra(self) -> None:
+        from h2h_racing.extras import install_hint, missing_extra
+
+        error = missing_extra("league", "league plots", ImportError("x", name="matplotlib"))
+        assert str(error) == ('league plots needs the optional matplotlib package(s), which are '
+                              'not installed (matplotlib is missing); install them with: '
+                              'pip install "h2h-racing[league]"')
+        assert install_hint("ray") == 'pip install "h2h-racing[ray]"'
+        with pytest.raises(ValueError, match="unknown extra"):
+            install_hint("gpu")
