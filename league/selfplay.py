@@ -35,6 +35,7 @@ import contextlib
 import dataclasses
 import io
 import os
+import re
 import shutil
 import sys
 import time
@@ -66,9 +67,18 @@ class LearnerSpec:
         if self.role not in ROLES:
             raise ValueError(f"learner {self.name!r}: role must be one of {ROLES}, got "
                              f"{self.role!r}")
-        if not self.name or ":" in self.name or "/" in self.name:
-            raise ValueError(f"learner name must be non-empty without ':' or '/', got "
-                             f"{self.name!r}")
+        _check_name("learner name", self.name)
+
+
+PLAIN_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_-]*")
+"""League and learner names: each names a folder (``runs/leagues/<name>``,
+``learners/<name>``), so no path separators, dots or ``..``."""
+
+
+def _check_name(what: str, name: Any) -> None:
+    if not isinstance(name, str) or not PLAIN_NAME.fullmatch(name):
+        raise ValueError(f"{what} must be a plain name (letters, digits, '_' and '-', not "
+                         f"starting with '-'; it names a folder), got {name!r}")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -76,7 +86,8 @@ class LeagueConfig:
     """A league run (``league/*.toml`` files hold these fields; unknown keys are refused)."""
 
     name: str = "league"
-    """League name (match keys and the store's meta)."""
+    """League name (match keys, the store's meta and the default folder
+    ``runs/leagues/<name>``): a plain name (``PLAIN_NAME``)."""
     tracks: tuple[str, ...] = ("speedway",)
     """Tracks the league trains and evaluates on, in turn by round."""
     learners: tuple[LearnerSpec, ...] = (
@@ -88,7 +99,7 @@ class LeagueConfig:
     """Scripted drivers (or shipped policies) that stay in the pool as fixed anchors."""
     rating_anchor: str = "racing_line"
     """Player held at 1000 in the ratings (must be one of ``anchors``)."""
-    init: str | None = "ppo_speedway_h2h"
+    init: str | None = "racing_line_student"
     """Policy every learner starts from and exploiters reset to (a shipped policy name or a
     policy.pt; AlphaStar starts from supervised weights); None trains from scratch."""
     minutes: float = 30.0
@@ -192,6 +203,7 @@ class LeagueConfig:
     """Seeds matchmaking, training and races."""
 
     def __post_init__(self) -> None:
+        _check_name("LeagueConfig.name", self.name)
         if not (isinstance(self.anchor_share, (int, float)) and 0.0 <= self.anchor_share <= 1.0):
             raise ValueError(f"LeagueConfig.anchor_share must be a number in [0, 1] (share of "
                              f"env copies), got {self.anchor_share!r}")
@@ -389,10 +401,12 @@ learner's ``runner.pt``. Module-level on purpose: it is the state of one worker 
 def train_round(job: TrainJob) -> dict[str, float]:
     """Run one round of PPO for ``job.learner``; save its state; return round statistics."""
     os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
+    # First: without torch, this import's error names the extra to install.
+    from h2h_racing.league.train import load_init, load_runner_state, save_policy
+
     import torch
     from rsl_rl.runners import OnPolicyRunner
 
-    from h2h_racing.league.train import load_init, save_policy
     from h2h_racing.league.vec_env import PoolOpponent
     from h2h_racing.track_io import load_track
 
@@ -413,7 +427,7 @@ def train_round(job: TrainJob) -> dict[str, float]:
             runner = OnPolicyRunner(env, config.rsl_rl_dict(), log_dir=None, device="cpu")
         state = folder / "runner.pt"
         if state.is_file() and not job.reset:
-            runner.load(str(state))
+            load_runner_state(runner, state)  # weights-only, unlike rsl-rl's runner.load
         elif job.config.init is not None:
             load_init(runner, job.config.init)
     if job.config.imitation_coef:
