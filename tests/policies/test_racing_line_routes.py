@@ -1,0 +1,142 @@
+"""The racing line on real routes: the banded solver, lap completion on DeepRacer's route
+files and the catalogue, the narrow 2019-era re:Invent 2018 route, and object avoidance."""
+
+from __future__ import annotations
+
+import math
+import sys
+import tracemalloc
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from h2h_racing.config import CarParams
+from h2h_racing.league.evaluate import evaluate
+from h2h_racing.match import run_race
+from h2h_racing.policies import RacingLine, compute_race_line
+from h2h_racing.policies.banded import CyclicPentadiagonal
+from h2h_racing.policies.racing_line import curvature_qp_bands, min_curvature_offsets
+from h2h_racing.track import Track
+from h2h_racing.track_io import list_tracks, load_track
+
+circle_track = sys.modules["conftest"].circle_track
+ellipse_route_rows = sys.modules["conftest"].ellipse_route_rows
+with_route_slips = sys.modules["conftest"].with_route_slips
+
+ROUTES = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "deepracer_tracks"
+
+
+def route_files() -> list[Path]:
+    return sorted(ROUTES.glob("*.npy")) if ROUTES.is_dir() else []
+
+
+def dense_offsets(track: Track, ds: float = 0.2, margin: float = 0.12,
+                  regularisation: float = 1e-4, reweightings: int = 3) -> np.ndarray:
+    """The racing line's QP built and solved with dense K x K matrices (the solver the banded
+    one replaced): H = A' W A from explicit circulant matrices, and ADMM with H's inverse."""
+    length = track.length
+    k = max(8, round(length / ds))
+    step = length / k
+    s = np.arange(k) * step
+    left, right = track.half_widths_at(s)
+    lo, hi = -(right - margin), left - margin
+    centre = track.point_at(s, 0.0)
+    psi = track.heading_at(s)
+    normal = np.stack([-np.sin(psi), np.cos(psi)], axis=1)
+    eye = np.eye(k)
+    d2 = np.roll(eye, 1, axis=1) - 2.0 * eye + np.roll(eye, -1, axis=1)
+    a = np.vstack([d2 * normal[:, 0][None, :], d2 * normal[:, 1][None, :]]) / step**2
+    b = np.concatenate([d2 @ centre[:, 0], d2 @ centre[:, 1]]) / step**2
+    d = np.zeros(k)
+    for _ in range(reweightings + 1):
+        points = centre + d[:, None] * normal
+        seg = np.hypot(*(np.roll(points, -1, axis=0) - points).T)
+        weight = np.tile((step / (0.5 * (seg + np.roll(seg, 1)))) ** 3, 2)
+        hess = (a.T * weight) @ a + regularisation * eye
+        lin = (a.T * weight) @ b
+        rho = 1e-4 * (step / 0.1) ** 4 * float(np.abs(hess).sum(axis=1).max())
+        inverse = np.linalg.inv(hess + rho * eye)
+        z, u = np.clip(d, lo, hi), np.zeros(k)
+        for _ in range(20_000):
+            x = inverse @ (rho * (z - u) - lin)
+            relaxed = 1.6 * x - 0.6 * z
+            z_old, z = z, np.clip(relaxed + u, lo, hi)
+            u = u + relaxed - z
+            if np.max(np.abs(x - z)) < 1e-6 and np.max(np.abs(z - z_old)) < 1e-6:
+                break
+        d = z
+    return d
+
+
+class TestBandedSolver:
+    """The banded solve gives the dense solve's line, and stays small on a 500 m circuit."""
+
+    def test_cyclic_pentadiagonal_solve_matches_dense(self) -> None:
+        rng = np.random.default_rng(0)
+        for k in (5, 8, 31):
+            off1, off2 = rng.normal(size=k), rng.normal(size=k)
+            diag = 1.0 + 2.0 * (np.abs(off1) + np.abs(off2))  # diagonally dominant
+            dense = np.diag(diag)
+            for i in range(k):
+                for j, v in (((i + 1) % k, off1[i]), ((i + 2) % k, off2[i])):
+                    dense[i, j] += v
+                    dense[j, i] += v
+            rhs = rng.normal(size=k)
+            np.testing.assert_allclose(CyclicPentadiagonal(diag, off1, off2).solve(rhs),
+                                       np.linalg.solve(dense, rhs), rtol=1e-12, atol=1e-12)
+
+    def test_bands_are_the_dense_hessian(self) -> None:
+        rng = np.random.default_rng(1)
+        k, step = 12, 0.2
+        centre = rng.normal(size=(k, 2))
+        psi = rng.uniform(-math.pi, math.pi, k)
+        normal = np.stack([-np.sin(psi), np.cos(psi)], axis=1)
+        weight = rng.uniform(0.5, 2.0, k)
+        eye = np.eye(k)
+        d2 = np.roll(eye, 1, axis=1) - 2.0 * eye + np.roll(eye, -1, axis=1)
+        a = np.vstack([d2 * normal[:, 0], d2 * normal[:, 1]]) / step**2
+        b = np.concatenate([d2 @ centre[:, 0], d2 @ centre[:, 1]]) / step**2
+        w2 = np.tile(weight, 2)
+        diag, off1, off2, lin = curvature_qp_bands(centre, normal, weight, step)
+        banded = np.diag(diag)
+        for i in range(k):
+            for j, v in (((i + 1) % k, off1[i]), ((i + 2) % k, off2[i])):
+                banded[i, j] += v
+                banded[j, i] += v
+        np.testing.assert_allclose(banded, (a.T * w2) @ a, rtol=1e-12, atol=1e-9)
+        np.testing.assert_allclose(lin, (a.T * w2) @ b, rtol=1e-12, atol=1e-9)
+
+    @pytest.mark.parametrize("name", ["oval", "kidney"])
+    def test_same_line_as_the_dense_solver(self, name: str) -> None:
+        track = load_track(name)
+        _, d = min_curvature_offsets(track)
+        np.testing.assert_allclose(d, dense_offsets(track), atol=2e-4)
+
+    def test_circle_line_is_the_inner_bound(self) -> None:
+        # By symmetry the line on a circle is a concentric circle, radius r = R - d. Its
+        # points' second differences are r (2 pi / K)^2, so for any fixed weights the energy
+        # grows as r^2: the line is the innermost circle allowed, 0.12 m from the inner
+        # (left, on a CCW circle) border: d = 0.5 - 0.12 everywhere.
+        track = circle_track(radius=3.0, half_width=0.5)
+        _, d = min_curvature_offsets(track)
+        np.testing.assert_allclose(d, 0.5 - 0.12, atol=2e-3)
+
+    def test_500_m_circuit_runs_in_bounded_memory(self) -> None:
+        # An ellipse of about 500 m with wiggles: 2,500 points at 0.2 m. Dense matrices
+        # would take 2,500^2 x 8 B = 50 MB each; the banded solve keeps a few bands.
+        t = np.linspace(0.0, 2.0 * math.pi, 2000, endpoint=False)
+        radius = 1.0 + 0.03 * np.sin(7 * t)
+        centre = np.stack([100 * radius * np.cos(t), 60 * radius * np.sin(t)], axis=1)
+        track = Track(centre, 1.5, 1.5, name="big_ellipse")
+        min_curvature_offsets(circle_track())  # compile and warm up first
+        tracemalloc.start()
+        try:
+            s, d = min_curvature_offsets(track)
+            _, peak = tracemalloc.get_traced_memory()
+        finally:
+            tracemalloc.stop()
+        assert 480 < track.length < 560 and len(s) == round(track.length / 0.2)
+        assert peak < 10e6, f"peak {peak / 1e6:.1f} MB"
+        left, right = track.half_widths_at(s)
+        assert np.all(d <= left - 0.12 + 1e-6) and np.all(d >= -right + 0.12 - 1e-6)
