@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import importlib.util
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -10,11 +12,9 @@ import pytest
 supersuit = pytest.importorskip("supersuit")
 sb3 = pytest.importorskip("stable_baselines3")
 
-from stable_baselines3 import PPO  # noqa: E402
-from stable_baselines3.common.utils import set_random_seed  # noqa: E402
-from stable_baselines3.common.vec_env import VecMonitor  # noqa: E402
-
 import h2h_racing  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[2]
 
 # Training rules and a 150-step limit: cars leave the oval at different times, so races end
 # (and the vector env resets them) several times within a few hundred steps.
@@ -28,21 +28,20 @@ def vec_env(copies: int, **kw: Any) -> Any:
     return supersuit.concat_vec_envs_v1(venv, copies, num_cpus=0, base_class="stable_baselines3")
 
 
-def test_ppo_learns_and_predicts_with_parked_agents() -> None:
-    venv = VecMonitor(vec_env(2, parked_agents=True))
-    assert venv.num_envs == 4  # 2 race copies x 2 cars
-    # SuperSuit's ConcatVecEnv has no seed() for SB3 to call: seed SB3 itself instead.
-    set_random_seed(0)
-    model = PPO("MultiInputPolicy", venv, n_steps=128, batch_size=128, n_epochs=1, verbose=0)
-    model.learn(total_timesteps=1024)
+def test_example_ppo_learns_and_predicts_with_parked_agents(tmp_path: Path) -> None:
+    spec = importlib.util.spec_from_file_location("sb3_supersuit",
+                                                  ROOT / "examples" / "sb3_supersuit.py")
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    result = example.train(copies=2, timesteps=1024, seed=0, out=str(tmp_path / "model"),
+                           epochs=1)
+    model = result["model"]
+    assert model.num_timesteps >= 1024 and (tmp_path / "model.zip").is_file()
+    assert set(model.observation_space.spaces) == {"lidar", "state"}
     # Every car of a race reports its end on the race's last step: VecMonitor saw episodes.
-    assert len(model.ep_info_buffer) >= 4
-    obs = venv.reset()
-    assert set(obs) == {"lidar", "state"} and obs["state"].shape == (4, 33)
-    action, _ = model.predict(obs, deterministic=True)
-    assert action.shape == (4, 2)
-    assert np.all(np.abs(action) <= 1.0)
-    venv.close()
+    assert len(result["episodes"]) >= 4
+    assert result["actions"].shape == (4, 2)  # 2 races x 2 cars
+    assert np.all(np.abs(result["actions"]) <= 1.0)
 
 
 def test_rewards_of_parked_cars_are_zero_until_the_race_resets() -> None:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import importlib.util
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -14,6 +16,8 @@ from torchrl.envs.utils import MarlGroupMapType, check_env_specs  # noqa: E402
 
 import h2h_racing  # noqa: E402
 from h2h_racing.infos import INFO_KEYS  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[2]
 
 # TorchRL 0.14 names the PettingZoo version it was tested with (1.24.3); ours is 1.27.0.
 pytestmark = pytest.mark.filterwarnings("ignore:PettingZoo in TorchRL is tested")
@@ -88,3 +92,18 @@ def test_serial_env_of_two() -> None:
             check_departures(td[copy], "car", 2)
     finally:
         env.close()
+
+
+def test_example_trains_and_acts() -> None:
+    spec = importlib.util.spec_from_file_location(
+        "torchrl_multi_agent", ROOT / "examples" / "torchrl_multi_agent.py")
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    make_env, train = example.make_env, example.train
+    result = train(frames=256, frames_per_batch=128, seed=0, epochs=1)
+    assert len(result["batch_rewards"]) == 2
+    assert all(torch.isfinite(torch.tensor(result["batch_rewards"])))
+    env = make_env(seed=1)
+    td = env.rollout(50, policy=result["policy"], break_when_any_done=False)
+    action = td["car", "action"]
+    assert action.shape == (50, 2, 2) and (action.abs() <= 1.0).all()
