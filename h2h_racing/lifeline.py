@@ -82,9 +82,11 @@ def die_with_parent(parent_pid: int, death_signal: bool = True) -> None:
     watch_parent(parent_pid)
 
 
-def death_signal_preexec() -> Callable[[], None]:
+def death_signal_preexec() -> Callable[[], None] | None:
     """A ``subprocess.Popen(preexec_fn=...)`` for a child (any binary) that must die with this
-    process: Linux only (a no-op elsewhere). Call ``Popen`` from the main thread."""
+    process; None off Linux (no death signal there). Call ``Popen`` from the main thread."""
+    if not sys.platform.startswith("linux"):
+        return None
     parent = os.getpid()
 
     def arm() -> None:

@@ -12,9 +12,11 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import math
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -64,6 +66,30 @@ def _exit_on_sigterm() -> None:
     import signal
 
     signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(128 + signum))
+
+
+def _league_errors(command: Callable[[argparse.Namespace], int]
+                   ) -> Callable[[argparse.Namespace], int]:
+    """``command`` with an unusable league file (empty, corrupt, newer, not a league) reported
+    as one clear line on stderr and exit status 2, not a traceback."""
+
+    @functools.wraps(command)
+    def run(args: argparse.Namespace) -> int:
+        import sqlite3
+
+        from h2h_racing.league.store import LeagueStoreError
+
+        try:
+            return command(args)
+        except LeagueStoreError as err:
+            print(f"h2h-racing: error: {err}", file=sys.stderr)
+        except sqlite3.DatabaseError as err:
+            where = getattr(args, "league", None) or "the league file"
+            print(f"h2h-racing: error: cannot read {where} (SQLite says: {err}); restore it "
+                  f"from a copy or give another league file", file=sys.stderr)
+        return 2
+
+    return run
 
 
 def _cmd_tournament(args: argparse.Namespace) -> int:
@@ -123,8 +149,6 @@ def _cmd_league_train(args: argparse.Namespace) -> int:
 
 
 def _cmd_league_table(args: argparse.Namespace) -> int:
-    import numpy as np
-
     from h2h_racing.league.ratings import format_standings, standings
     from h2h_racing.league.store import LeagueStore
 
@@ -137,7 +161,9 @@ def _cmd_league_table(args: argparse.Namespace) -> int:
                              + (f" with context {args.context!r}" if args.context else ""))
         players = {p for race in races for p in race}
         anchor = args.anchor if args.anchor in players else None
-        rows = standings(races, anchor=anchor, n_boot=args.boot, rng=np.random.default_rng(0))
+        # Canonical race order and the fixed bootstrap seed: the table is the same whatever
+        # order the matches were stored in, and equals the one `tournament` printed.
+        rows = standings(races, anchor=anchor, n_boot=args.boot)
         trends = _trends(store, rows)
     print(f"{len(races)} races" + (f", anchor {anchor} = 1000" if anchor else ""))
     print(format_standings(rows))
@@ -265,7 +291,7 @@ def add_commands(sub: Any) -> None:
                       help="player rated 1000 (default: racing_line when it plays)")
     tour.add_argument("--league", default=DEFAULT_LEAGUE, help="league file (SQLite)")
     _add_backend_args(tour, "local")
-    tour.set_defaults(func=_cmd_tournament)
+    tour.set_defaults(func=_league_errors(_cmd_tournament))
 
     league = sub.add_parser("league", help="self-play league: train, table, plot")
     lsub = league.add_subparsers(dest="league_command", required=True)
@@ -280,14 +306,14 @@ def add_commands(sub: Any) -> None:
     train.add_argument("--rounds", type=int, default=None,
                        help="override the round cap (default: the config's max_rounds)")
     _add_backend_args(train, "local")
-    train.set_defaults(func=_cmd_league_train)
+    train.set_defaults(func=_league_errors(_cmd_league_train))
     table = lsub.add_parser("table", help="print the standings of a league file")
     table.add_argument("--league", default=DEFAULT_LEAGUE, help=LEAGUE_FILE_HELP)
     table.add_argument("--context", default=None,
                        help="only matches whose context starts with this (e.g. tournament:x)")
     table.add_argument("--anchor", default="racing_line", help="player rated 1000")
     table.add_argument("--boot", type=int, default=200, help="bootstrap resamples")
-    table.set_defaults(func=_cmd_league_table)
+    table.set_defaults(func=_league_errors(_cmd_league_table))
     plot = lsub.add_parser("plot", help="PNGs of ratings over training and the win matrix")
     plot.add_argument("--league", default=DEFAULT_LEAGUE, help=LEAGUE_FILE_HELP)
     plot.add_argument("--context", default=None, help="matches of the win matrix (prefix)")
@@ -295,4 +321,4 @@ def add_commands(sub: Any) -> None:
     plot.add_argument("--players", type=int, default=16,
                       help="rows of the win matrix: the N best-rated players plus the scripted "
                            "anchors")
-    plot.set_defaults(func=_cmd_league_plot)
+    plot.set_defaults(func=_league_errors(_cmd_league_plot))

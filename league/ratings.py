@@ -33,6 +33,9 @@ Race = Mapping[str, float]
 """One race: player name -> finishing place (1 = first; equal places tie)."""
 ELO_SCALE = 400.0
 """Elo points per factor of 10 in the odds of winning."""
+BOOTSTRAP_SEED = 0
+"""Seed of ``standings``' bootstrap when no generator is given: the same races, in the same
+order, give the same table byte for byte (``tournament`` and ``league table`` agree)."""
 
 
 def expected_score(r_a: float, r_b: float) -> float:
@@ -414,7 +417,7 @@ def standings(races: Iterable[Race], anchor: str | None, anchor_rating: float = 
         anchor: Player fixed at ``anchor_rating``; None fixes the mean.
         anchor_rating: [Elo].
         n_boot: Bootstrap resamples for the interval; 0 skips it (NaN bounds).
-        rng: Random generator of the bootstrap.
+        rng: Random generator of the bootstrap; None seeds one with ``BOOTSTRAP_SEED``.
         prior: Virtual draws per player (see ``bradley_terry``).
         level: Interval coverage.
         k: K-factor of the sequential Elo column, which starts every player at
@@ -423,6 +426,7 @@ def standings(races: Iterable[Race], anchor: str | None, anchor_rating: float = 
     race_list = _races(races)
     ratings = bradley_terry(race_list, anchor=anchor, anchor_rating=anchor_rating, prior=prior)
     if n_boot:
+        rng = np.random.default_rng(BOOTSTRAP_SEED) if rng is None else rng
         intervals = bootstrap_intervals(race_list, n=n_boot, level=level, rng=rng,
                                         anchor=anchor, anchor_rating=anchor_rating, prior=prior)
     else:

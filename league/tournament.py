@@ -10,7 +10,10 @@ race index), so two players meet on exactly the conditions every other pair meet
 Each race is stored as one match whose key names the tournament, track, players, seat order
 and seed. Before running, the scheduler drops the races whose keys are already in the store,
 so a tournament killed at any moment continues where it stopped and never counts a race
-twice.
+twice. What else decides a race's outcome (laps, seed, race type, rules, car and physics
+settings, each track's geometry) is the tournament's identity, stored in the league file's
+``meta`` under ``tournament:<name>:settings``: running a stored name with other settings is
+an error, not a resume that would report the old races as the new ones.
 
 Schedules:
 
@@ -25,7 +28,9 @@ Schedules:
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import itertools
+import json
 import math
 import os
 import zlib
@@ -38,6 +43,12 @@ import numpy as np
 from h2h_racing.league.store import CarResult, LeagueStore, MatchRecord, player_for
 
 SCHEDULES = ("round_robin", "swiss")
+RACE_TYPE = "head_to_head"
+"""Race type of every tournament race."""
+SETTINGS_FORMAT = 1
+"""Version of the stored tournament settings."""
+OUTCOME_FIELDS = ("race_type", "rules", "car", "step_dt", "physics_substeps", "max_cycles")
+"""``EnvConfig`` fields that decide a race's outcome; part of a tournament's identity."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -128,6 +139,94 @@ def _race_start(seed: int, track: str, race: int, length: float) -> float:
     unlike ``hash``)."""
     mix = zlib.crc32(f"{seed}:{track}:{race}".encode())
     return float(np.random.default_rng(mix).uniform(0.0, length))
+
+
+def race_config(track: str, num_cars: int, laps: int) -> Any:
+    """The ``EnvConfig`` of a tournament (or league) race of ``laps`` laps."""
+    from h2h_racing.config import EnvConfig, RaceRules
+
+    rules = RaceRules(laps=laps, time_limit=60.0 * laps)
+    return EnvConfig(track=track, num_cars=num_cars, race_type=RACE_TYPE, rules=rules)
+
+
+def track_fingerprint(track: str) -> str:
+    """SHA-256 (hex, 16 digits) of a track's geometry: a track file edited between two runs of
+    a tournament is a different track under the same name."""
+    from h2h_racing.track_io import load_track
+
+    loaded = load_track(track)
+    digest = hashlib.sha256()
+    for name in ("centre", "width_left", "width_right", "left_border", "right_border",
+                 "waypoints"):
+        value = getattr(loaded, name, None)
+        digest.update(name.encode())
+        if value is not None:
+            digest.update(np.ascontiguousarray(value, dtype="<f8").tobytes())
+    return digest.hexdigest()[:16]
+
+
+def tournament_settings(config: TournamentConfig) -> dict[str, Any]:
+    """Everything besides the match keys that decides the outcome of ``config``'s races."""
+    env = dataclasses.asdict(race_config(config.tracks[0], 2, config.laps))
+    settings = {"format": SETTINGS_FORMAT, "laps": config.laps, "seed": config.seed,
+                "schedule": config.schedule, **{name: env[name] for name in OUTCOME_FIELDS},
+                "tracks": {track: track_fingerprint(track) for track in config.tracks}}
+    return json.loads(json.dumps(settings))  # as stored: tuples become lists
+
+
+def check_settings(config: TournamentConfig, store: LeagueStore) -> None:
+    """Store ``config``'s settings as the tournament's identity, or check them against the
+    stored ones. New tracks join the tournament; a stored track must keep its geometry.
+
+    Raises:
+        ValueError: The name was played with other settings, or races of the name were
+            stored without settings (by an older h2h-racing), so they cannot be checked.
+    """
+    key = f"{config.context}:settings"
+    new = tournament_settings(config)
+    stored_text = store.meta().get(key)
+    if stored_text is None:
+        stored_races = (store.count_matches(context=config.context)
+                        + store.count_matches(context=config.context, status="failed"))
+        if stored_races:
+            raise ValueError(
+                f"{store.path} holds {stored_races} races of tournament {config.name!r} stored "
+                f"without their settings (by an older h2h-racing), so they cannot be checked "
+                f"against laps={config.laps}, seed={config.seed}; give another --name or "
+                f"--league file")
+        store.set_meta(key, json.dumps(new, sort_keys=True))
+        return
+    stored = json.loads(stored_text)
+    old_leaves = _leaves({k: v for k, v in stored.items() if k != "tracks"})
+    new_leaves = _leaves({k: v for k, v in new.items() if k != "tracks"})
+    changed = [f"{name}: stored {json.dumps(old_leaves.get(name))}, now "
+               f"{json.dumps(new_leaves.get(name))}"
+               for name in sorted(old_leaves.keys() | new_leaves.keys())
+               if old_leaves.get(name) != new_leaves.get(name)]
+    changed += [f"track {track!r}: its geometry changed (fingerprint stored "
+                f"{stored['tracks'][track]}, now {fingerprint})"
+                for track, fingerprint in new["tracks"].items()
+                if stored.get("tracks", {}).get(track, fingerprint) != fingerprint]
+    if changed:
+        raise ValueError(
+            f"tournament {config.name!r} in {store.path} was played with other settings ("
+            + "; ".join(changed) + "); its stored races would be reported as these. Give "
+            "another --name (or --league file) for these settings, or the stored ones to "
+            "resume it")
+    if set(new["tracks"]) - set(stored["tracks"]):
+        stored["tracks"] = {**stored["tracks"], **new["tracks"]}
+        store.set_meta(key, json.dumps(stored, sort_keys=True))
+
+
+def _leaves(settings: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """``{"rules": {"laps": 2}}`` -> ``{"rules.laps": 2}`` (to name what changed)."""
+    leaves: dict[str, Any] = {}
+    for name, value in settings.items():
+        if isinstance(value, dict):
+            leaves.update(_leaves(value, f"{prefix}{name}."))
+        else:
+            leaves[prefix + name] = value
+    return leaves
 
 
 def _track_length(track: str) -> float:
@@ -222,7 +321,6 @@ def run_job(job: Job) -> list[MatchRecord]:
     records.
     """
     os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
-    from h2h_racing.config import EnvConfig, RaceRules
     from h2h_racing.core import RaceCore
     from h2h_racing.policies import make_driver
     from h2h_racing.results import race_results
@@ -231,8 +329,7 @@ def run_job(job: Job) -> list[MatchRecord]:
     _one_thread()
     track = load_track(job.track)
     num = len(job.players)
-    rules = RaceRules(laps=job.laps, time_limit=60.0 * job.laps)
-    config = EnvConfig(track=job.track, num_cars=num, race_type="head_to_head", rules=rules)
+    config = race_config(job.track, num, job.laps)
     core = RaceCore(config, track, num_envs=len(job.keys))
     core.reset(seed=job.seed, slots=np.asarray(job.slots), start=np.asarray(job.starts))
     # The random driver draws from its own generator, seeded per job and car.
@@ -261,7 +358,7 @@ def run_job(job: Job) -> list[MatchRecord]:
                 penalty_time=row["penalty_time"], off_tracks=row["off_tracks"],
                 grid_slot=job.slots[copy][seat]))
         records.append(MatchRecord(
-            key=key, track=track.name, race_type="head_to_head", laps=job.laps,
+            key=key, track=track.name, race_type=RACE_TYPE, laps=job.laps,
             seed=job.seeds[copy], cars=tuple(sorted(cars, key=lambda c: c.seat)),
             context=job.context, start=job.starts[copy], steps=int(race_steps[copy])))
     return records
@@ -311,6 +408,7 @@ def run_tournament(config: TournamentConfig, store: LeagueStore, backend: Any | 
     from h2h_racing.league.ratings import standings
 
     backend = backend or InProcessBackend()
+    check_settings(config, store)
     players = [player_for(name) for name in config.players]
     for player in players:
         store.add_player(player)
@@ -336,16 +434,14 @@ def run_tournament(config: TournamentConfig, store: LeagueStore, backend: Any | 
             jobs = [job for job in jobs if job is not None]
             total = len(races) + sum(len(j.keys) for j in jobs)
             ran += _run_jobs(jobs, store, backend, progress, len(races), total)
-    # Rated in the order of the match keys, not the order the races finished in: the
-    # sequential Elo and the bootstrap intervals read the order, and workers (local or Ray)
-    # finish jobs in any order, while the keys come from the schedule.
-    races = [m.places for m in sorted(store.matches(context=config.context),
-                                      key=lambda m: m.key)]
+    # In canonical order with the fixed bootstrap seed (store.races, ratings.standings):
+    # workers finish jobs in any order and a resume stores the rest later, and the table must
+    # not depend on that (it equals `league table --context tournament:NAME`).
+    races = store.races(context=config.context)
     anchor = config.anchor
     if anchor is None and "racing_line" in names:
         anchor = "racing_line"
-    rows = standings(races, anchor=anchor, anchor_rating=config.anchor_rating, n_boot=n_boot,
-                     rng=np.random.default_rng(config.seed))
+    rows = standings(races, anchor=anchor, anchor_rating=config.anchor_rating, n_boot=n_boot)
     store.record_ratings("bradley_terry", {r.player: r.rating for r in rows},
                          {r.player: (r.low, r.high) for r in rows}, matches=len(races))
     return TournamentReport(config=config, ran=ran, skipped=len(done), standings=rows)

@@ -240,3 +240,267 @@ def test_a_local_ray_listens_on_127_0_0_1_only(tmp_path):
     assert len(report["workers"]) >= 1
     loopback = {"127.0.0.1", "::ffff:127.0.0.1", "::1"}
     assert [s for s in report["listening"] if s[0] not in loopback] == []
+
+
+# ------------------------------------------------------------ race --serve and its ports
+
+def _free_ports(count: int) -> list[int]:
+    """Ports nothing listens on now (the kernel's pick for port 0)."""
+    sockets = [socket.socket() for _ in range(count)]
+    for s in sockets:
+        s.bind(("127.0.0.1", 0))
+    ports = [s.getsockname()[1] for s in sockets]
+    for s in sockets:
+        s.close()
+    return ports
+
+
+@pytest.mark.parametrize("busy", ["--web-port", "--grpc-port"])
+def test_race_serve_on_a_taken_port_fails_before_racing(busy, capsys):
+    pytest.importorskip("rerun")
+    from h2h_racing.cli import main
+
+    web, grpc = _free_ports(2)
+    holder = socket.socket()
+    holder.bind(("127.0.0.1", web if busy == "--web-port" else grpc))
+    holder.listen()
+    try:
+        code = main(["race", "--track", "oval", "--laps", "1", "--serve", "--serve-seconds", "0",
+                     "--web-port", str(web), "--grpc-port", str(grpc), "--no-progress"])
+    finally:
+        holder.close()
+    out, err = capsys.readouterr()
+    assert code == 2
+    name = busy.removeprefix("--").replace("-", "_")
+    port = web if busy == "--web-port" else grpc
+    assert f"{name} {port} is already in use on 127.0.0.1" in err
+    assert busy in err  # says which flag picks another port
+    assert "Traceback" not in err
+    assert "web viewer:" not in out and "racing_line" not in out  # no race, no link
+
+
+SERVE_PARENT = """
+    import sys
+    import h2h_racing
+    from h2h_racing.viz import RaceRecorder
+
+    web, grpc = int(sys.argv[1]), int(sys.argv[2])
+    env = h2h_racing.parallel_env(track="oval", num_cars=1)
+    recorder = RaceRecorder(env, serve=True, cameras=False, web_port=web, grpc_port=grpc)
+    print(recorder._server.pid, flush=True)
+    __import__("time").sleep(600)
+"""
+
+
+def test_the_viewer_server_dies_with_a_killed_race(tmp_path):
+    pytest.importorskip("rerun")
+    if not sys.platform.startswith("linux"):
+        pytest.skip("the viewer server dies with its parent on Linux only (PR_SET_PDEATHSIG)")
+    from h2h_racing.viz import check_ports_free
+
+    web, grpc = _free_ports(2)
+    path = tmp_path / "parent.py"
+    path.write_text(textwrap.dedent(SERVE_PARENT))
+    parent = subprocess.Popen([sys.executable, str(path), str(web), str(grpc)],
+                              stdout=subprocess.PIPE, text=True, env=_python_env(), cwd=tmp_path)
+    try:
+        server = int(_read_line(parent))
+        assert _alive([server]) == [server]
+        with pytest.raises(ValueError, match="already in use"):  # the server holds them
+            check_ports_free({"web_port": web, "grpc_port": grpc})
+        assert _kill_and_wait_for(parent, [server]) == []
+    finally:
+        if parent.poll() is None:
+            parent.kill()
+    check_ports_free({"web_port": web, "grpc_port": grpc})  # and the ports are free again
+
+
+# ------------------------------------------------------------ league files and tournaments
+
+def _league_cli(argv: list[str], capsys) -> tuple[int, str, str]:
+    from h2h_racing.cli import main
+
+    code = main(argv)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def _tournament(league: Path, *extra: str) -> list[str]:
+    return ["tournament", "--players", "racing_line,pure_pursuit", "--tracks", "oval",
+            "--races", "1", "--laps", "1", "--backend", "inprocess", "--league", str(league),
+            *extra]
+
+
+def test_a_tournament_name_reused_with_other_laps_or_seed_is_an_error(tmp_path, capsys):
+    """Before: '0 races run' and the 1-lap table printed as the 2-lap (or other seed) one."""
+    from h2h_racing.league.store import LeagueStore
+
+    league = tmp_path / "league.sqlite"
+    code, out, _ = _league_cli(_tournament(league), capsys)
+    assert code == 0 and "2 races run" in out
+    for flag, value, message in (("--laps", "2", "laps: stored 1, now 2"),
+                                 ("--seed", "7", "seed: stored 0, now 7")):
+        code, out, err = _league_cli(_tournament(league, flag, value), capsys)
+        assert code == 2, (flag, out)
+        assert message in err and "another --name" in err
+        assert "racing_line" not in out  # no table of the stored races
+    code, out, _ = _league_cli(_tournament(league, "--name", "two_laps", "--laps", "2"), capsys)
+    assert code == 0 and "2 races run" in out
+    code, out, _ = _league_cli(_tournament(league), capsys)  # the same settings resume
+    assert code == 0 and "0 races run, 2 already in" in out
+    with LeagueStore(league) as store:
+        laps = sorted((m.context, m.laps) for m in store.matches())
+    assert laps == [("tournament:default", 1)] * 2 + [("tournament:two_laps", 2)] * 2
+
+
+def test_a_tournament_track_edited_between_runs_is_an_error(tmp_path):
+    import dataclasses
+
+    from h2h_racing.league.store import LeagueStore
+    from h2h_racing.league.tournament import TournamentConfig, run_tournament
+    from h2h_racing.track_io import load_track, save_track
+
+    track_file = tmp_path / "mine.json"
+    oval = load_track("oval")
+    save_track(oval, track_file)
+    config = TournamentConfig(players=("racing_line", "pure_pursuit"), tracks=(str(track_file),),
+                              races=1, laps=1)
+    with LeagueStore(tmp_path / "league.sqlite") as store:
+        assert run_tournament(config, store, n_boot=0).ran == 2
+        wider = dataclasses.replace(oval, width_left=oval.width_left * 1.2,
+                                    width_right=oval.width_right * 1.2)
+        save_track(wider, track_file)
+        with pytest.raises(ValueError, match="its geometry changed"):
+            run_tournament(config, store, n_boot=0)
+        # Another track joins the tournament; the stored one keeps its races.
+        save_track(oval, track_file)
+        report = run_tournament(dataclasses.replace(config, tracks=(str(track_file), "oval")),
+                                store, n_boot=0)
+    assert (report.ran, report.skipped) == (2, 2)
+
+
+def test_a_tournament_stored_without_settings_gives_a_clear_error(tmp_path):
+    """A league file of an older h2h-racing: its races cannot be checked, so no resume."""
+    from h2h_racing.league.store import CarResult, LeagueStore, MatchRecord, player_for
+    from h2h_racing.league.tournament import TournamentConfig, run_tournament
+
+    config = TournamentConfig(players=("racing_line", "pure_pursuit"), tracks=("oval",),
+                              races=1, laps=3)
+    with LeagueStore(tmp_path / "old.sqlite") as store:
+        for name in config.players:
+            store.add_player(player_for(name))
+        store.record_match(MatchRecord(
+            key="tournament:default:oval:racing_line,pure_pursuit:slots=01:race=0",
+            track="oval", race_type="head_to_head", laps=1, seed=0,
+            context="tournament:default",
+            cars=(CarResult(seat=0, player="racing_line", position=1, finished=True, laps=1),
+                  CarResult(seat=1, player="pure_pursuit", position=2, finished=True, laps=1))))
+        with pytest.raises(ValueError, match="stored without their settings"):
+            run_tournament(config, store, n_boot=0)
+
+
+def _synthetic_matches(count: int = 60) -> list:
+    """Matches of 3 players with mixed results (keys as a tournament writes them)."""
+    import numpy as np
+
+    from h2h_racing.league.store import CarResult, MatchRecord
+
+    rng = np.random.default_rng(17)
+    players = ("racing_line", "pure_pursuit", "blocker")
+    matches = []
+    for race in range(count):
+        pair = [players[i] for i in rng.choice(3, size=2, replace=False)]
+        first = int(rng.integers(2))
+        cars = tuple(CarResult(seat=seat, player=player, position=1 + (seat != first),
+                               finished=True, laps=1) for seat, player in enumerate(pair))
+        matches.append(MatchRecord(
+            key=f"tournament:x:oval:{','.join(pair)}:slots=01:race={race}", track="oval",
+            race_type="head_to_head", laps=1, seed=race, cars=cars, context="tournament:x"))
+    return matches
+
+
+def _store_matches(path: Path, matches: list) -> None:
+    from h2h_racing.league.store import LeagueStore, player_for
+
+    with LeagueStore(path) as store:
+        for name in ("racing_line", "pure_pursuit", "blocker"):
+            store.add_player(player_for(name))
+        for match in matches:
+            store.record_match(match)
+
+
+def test_league_table_is_the_same_whatever_order_the_matches_were_stored_in(tmp_path, capsys):
+    import random
+
+    matches = _synthetic_matches()
+    shuffled = list(matches)
+    random.Random(3).shuffle(shuffled)
+    tables = []
+    for name, order in (("a", matches), ("b", shuffled), ("c", matches[::-1])):
+        _store_matches(tmp_path / f"{name}.sqlite", order)
+        code, out, _ = _league_cli(["league", "table", "--league",
+                                    str(tmp_path / f"{name}.sqlite")], capsys)
+        assert code == 0
+        tables.append(out)
+    assert tables[0] == tables[1] == tables[2]
+    assert "60 races" in tables[0]
+
+
+def test_tournament_prints_the_table_that_league_table_prints(tmp_path, capsys):
+    league = tmp_path / "league.sqlite"
+    code, out, _ = _league_cli(
+        ["tournament", "--players", "racing_line,pure_pursuit,blocker", "--tracks", "oval",
+         "--races", "2", "--laps", "1", "--seed", "3", "--backend", "inprocess", "--league",
+         str(league)], capsys)
+    assert code == 0
+    printed = out.split("\n", 1)[1].strip()  # after the "tournament ...: N races run" line
+    code, out, _ = _league_cli(["league", "table", "--league", str(league)], capsys)
+    assert code == 0
+    assert out.split("\n", 1)[1].strip() == printed  # after the "N races, anchor" line
+    assert "blocker" in printed
+
+
+@pytest.mark.parametrize("command", ["tournament", "table"])
+def test_an_empty_league_file_is_not_a_new_league(tmp_path, capsys, command):
+    league = tmp_path / "league.sqlite"
+    league.write_bytes(b"")
+    argv = (_tournament(league) if command == "tournament"
+            else ["league", "table", "--league", str(league)])
+    code, out, err = _league_cli(argv, capsys)
+    assert code == 2
+    assert "is empty (0 bytes), not a league file" in err
+    assert "races run" not in out
+    assert league.stat().st_size == 0  # left as it was
+
+
+def _damaged_league(tmp_path: Path) -> Path:
+    """A real league file with pages 3 to 5 overwritten (a bad disk, a half-copied file)."""
+    path = tmp_path / "damaged.sqlite"
+    _store_matches(path, _synthetic_matches(200))
+    data = bytearray(path.read_bytes())
+    assert len(data) > 6 * 4096
+    data[3 * 4096:6 * 4096] = b"\xa5" * (3 * 4096)
+    path.write_bytes(bytes(data))
+    return path
+
+
+@pytest.mark.parametrize("content", ["random", "damaged"])
+@pytest.mark.parametrize("command", ["tournament", "table", "plot"])
+def test_a_corrupt_league_file_gives_one_clear_line(tmp_path, capsys, content, command):
+    """Before: the clear message, then a full traceback (or a traceback alone, or races run
+    into the damaged file)."""
+    import random
+
+    if content == "random":
+        league = tmp_path / "random.sqlite"
+        league.write_bytes(random.Random(5).randbytes(5000))
+    else:
+        league = _damaged_league(tmp_path)
+    argv = {"tournament": _tournament(league),
+            "table": ["league", "table", "--league", str(league)],
+            "plot": ["league", "plot", "--league", str(league), "--out", str(tmp_path)]}[command]
+    code, out, err = _league_cli(argv, capsys)
+    assert code == 2
+    assert err.startswith(f"h2h-racing: error: {league}") and err.count("\n") == 1, err
+    assert "not a league file" in err or "is damaged" in err
+    assert "races run" not in out
