@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import sys
 import time
 from collections.abc import Sequence
@@ -21,6 +22,16 @@ from h2h_racing.config import RaceRules
 from h2h_racing.deepracer.metadata import nearest_discrete
 from h2h_racing.env import RacingEnv
 from h2h_racing.results import format_results
+
+VIDEO_CODECS: dict[str, tuple[tuple[str, str], ...]] = {
+    ".mp4": (("avc1", "H.264"), ("mp4v", "MPEG-4 Part 2")),
+    ".webm": (("VP80", "VP8"),),
+}
+"""``race --video`` codecs by file suffix, (OpenCV fourcc, name) tried in order. H.264 plays
+everywhere, but OpenCV's pip wheels have no H.264 encoder: their MP4 is then MPEG-4 Part 2,
+which browsers do not play. WebM's VP8 plays in browsers and pip's OpenCV writes it (VP9 too,
+but 3-10x slower: 30-140 ms a frame on the development machine)."""
+FALLBACK_CODEC = "MPEG-4 Part 2"
 
 
 @dataclass(frozen=True)
@@ -45,6 +56,10 @@ class RaceResult:
     """Their speed [m/s]."""
     bot_pauses: int = 0
     """How often a bot ran into a car ahead, pausing every bot."""
+    video: str | None = None
+    """With ``video``: the file written."""
+    video_codec: str = ""
+    """Its codec (a name in ``VIDEO_CODECS``)."""
     viewer: Any = field(default=None, repr=False, compare=False)
     """With ``serve=True``: the ``h2h_racing.viz.RaceRecorder`` still serving the web viewer
     (``viewer.viewer_url``); ``viewer.serve_until(seconds)`` keeps it up, then closes it."""
@@ -80,7 +95,8 @@ def run_race(track: str, drivers: Sequence[str | Any], race_type: str = "head_to
         laps: Lap target; None keeps the race type's preset.
         seed: Seed of the race (grid draw and obstacle randomisation).
         grid: Grid slot of each car; None draws it from the seed.
-        video: Write a top-down MP4 of the race to this path.
+        video: Write a top-down video of the race to this path (``.mp4`` or ``.webm``, see
+            ``VIDEO_CODECS``).
         save: Write a rerun recording (``.rrd``) of the race to this path.
         spawn: Stream the race to the native rerun viewer (needs a display).
         serve: Serve the race in the rerun web viewer on 127.0.0.1; the result's
@@ -131,6 +147,7 @@ def run_race(track: str, drivers: Sequence[str | Any], race_type: str = "head_to
     names = {f"car_{i}": name for i, name in enumerate(labels)}
     bar = ProgressBar(env) if progress else None
     writer = None
+    codec = ""
     steps = 0
     try:
         obs, infos = env.reset(seed=seed, options=options)
@@ -140,7 +157,8 @@ def run_race(track: str, drivers: Sequence[str | Any], race_type: str = "head_to
             policy.reset(env.core)
         if logger is not None:
             logger.start(env.core)
-        writer = _video_writer(video, env) if video else None
+        if video:
+            writer, codec = _video_writer(video, env)
         while env.agents:
             actions = {agent: policies[i].act(env.core, i)[0]
                        for i, agent in enumerate(env.possible_agents) if agent in env.agents}
@@ -187,6 +205,7 @@ def run_race(track: str, drivers: Sequence[str | Any], race_type: str = "head_to
                       simtrace=tuple(logger.paths) if logger is not None else (),
                       bots=env.core.num_bots, bot_speed=env.config.bot_speed,
                       bot_pauses=int(env.core.bot_pauses[0]),
+                      video=str(video) if video else None, video_codec=codec,
                       viewer=recorder if serve else None)
 
 
@@ -259,14 +278,33 @@ def _bgr(frame: Any) -> Any:
     return cv2.cvtColor(frame, cv2.COLOR_RGB2BGR)
 
 
-def _video_writer(path: str | Path, env: RacingEnv) -> Any:
+def _video_writer(path: str | Path, env: RacingEnv) -> tuple[Any, str]:
+    """An open OpenCV writer with the first codec of ``VIDEO_CODECS`` it has, and its name."""
     import cv2
+    import cv2.utils.logging as cv_log
 
+    suffix = Path(path).suffix.lower()
+    if suffix not in VIDEO_CODECS:
+        raise ValueError(f"video {path}: the file name must end in one of "
+                         f"{', '.join(VIDEO_CODECS)} (.webm plays in browsers), got {suffix!r}")
     frame = env.render()
     height, width = frame.shape[:2]
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"),
-                             env.metadata["render_fps"], (width, height))
-    if not writer.isOpened():
-        raise ValueError(f"cannot write a video to {path}: OpenCV has no mp4v encoder here")
+    # A codec OpenCV lacks fails with error lines from OpenCV and FFmpeg; the probe is expected
+    # to fail, so keep them off the terminal (FFmpeg's level is read on its first use).
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
+    level = cv_log.getLogLevel()
+    cv_log.setLogLevel(cv_log.LOG_LEVEL_SILENT)
+    try:
+        for fourcc, codec in VIDEO_CODECS[suffix]:
+            writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*fourcc),
+                                     env.metadata["render_fps"], (width, height))
+            if writer.isOpened():
+                break
+            writer.release()
+        else:
+            raise ValueError(f"cannot write a video to {path}: OpenCV has none of the encoders "
+                             f"{', '.join(name for _, name in VIDEO_CODECS[suffix])} here")
+    finally:
+        cv_log.setLogLevel(level)
     writer.write(_bgr(frame))
-    return writer
+    return writer, codec

@@ -17,7 +17,8 @@ def race_results(core: RaceCore, env_index: int, agents: list[str]) -> list[dict
     """Return one dict per car of env copy ``env_index``, in race order (winner first).
 
     Keys: ``position``, ``agent``, ``finished``, ``laps``, ``total_time`` (finish time in
-    simulated seconds, inf if not finished), ``best_lap`` (best valid lap, inf if none),
+    simulated seconds, inf if not finished; in a race without a lap target, a time trial, the
+    time of the laps completed, inf without one), ``best_lap`` (best valid lap, inf if none),
     ``lap_times``, ``resets``, ``penalties``, ``penalty_time``, ``off_tracks``, ``crashes``,
     ``collisions``, ``overtakes``, ``defences``, ``distance``.
     """
@@ -28,12 +29,17 @@ def race_results(core: RaceCore, env_index: int, agents: list[str]) -> list[dict
     order = np.argsort(rank, kind="stable").tolist()
     rows = []
     for position, car in enumerate(order, start=1):
+        total = float(core.finish_time[e, car])
+        if core.rules.laps == 0 and not core.finished[e, car] and core.lap_times[e][car]:
+            # A time trial has no lap target, so nobody finishes: its total is the time of the
+            # laps driven (the clock when the last completed lap ended).
+            total = float(sum(core.lap_times[e][car]))
         rows.append({
             "position": position,
             "agent": agents[car],
             "finished": bool(core.finished[e, car]),
             "laps": int(core.laps[e, car]),
-            "total_time": float(core.finish_time[e, car]),
+            "total_time": total,
             "best_lap": float(core.best_lap_time[e, car]),
             "lap_times": list(core.lap_times[e][car]),
             "resets": int(core.resets[e, car]),
@@ -54,16 +60,19 @@ def _seconds(value: float) -> str:
 
 
 def format_results(rows: list[dict[str, Any]], names: dict[str, str] | None = None) -> str:
-    """Format results as a fixed-width text table (one line per car)."""
+    """Format results as a fixed-width text table (one line per car; the car column as wide
+    as its longest label). ``DNF``: a lap target not reached."""
     names = names or {}
-    header = (f"{'pos':>3}  {'car':<24} {'laps':>4} {'total s':>8} {'best lap':>8} "
+    labels = [r["agent"] + (f" ({names[r['agent']]})" if r["agent"] in names else "")
+              for r in rows]
+    width = max([24, *map(len, labels)])
+    header = (f"{'pos':>3}  {'car':<{width}} {'laps':>4} {'total s':>8} {'best lap':>8} "
               f"{'resets':>6} {'pen s':>6} {'off':>4} {'crash':>5} {'overt':>5} {'def':>4}")
     lines = [header, "-" * len(header)]
-    for r in rows:
-        label = r["agent"] + (f" ({names[r['agent']]})" if r["agent"] in names else "")
-        total = _seconds(r["total_time"]) if r["finished"] else "DNF"
+    for r, label in zip(rows, labels):
+        total = _seconds(r["total_time"]) if math.isfinite(r["total_time"]) else "DNF"
         lines.append(
-            f"{r['position']:>3}  {label:<24} {r['laps']:>4} {total:>8} "
+            f"{r['position']:>3}  {label:<{width}} {r['laps']:>4} {total:>8} "
             f"{_seconds(r['best_lap']):>8} {r['resets']:>6} {r['penalty_time']:>6.1f} "
             f"{r['off_tracks']:>4} {r['crashes']:>5} {r['overtakes']:>5} {r['defences']:>4}")
     return "\n".join(lines)

@@ -83,7 +83,8 @@ class TrainedPolicy:
 
     Args:
         path: A ``policy.pt`` file.
-        name: Driver name shown in results (default: the file's folder name).
+        name: Driver name shown in results (default: the path as given; a run folder's name
+            alone, ``runs/speedway/policy.pt`` -> ``speedway``, read as a track's).
     """
 
     def __init__(self, path: str | Path, name: str | None = None) -> None:
@@ -91,7 +92,7 @@ class TrainedPolicy:
         if not path.is_file():
             raise FileNotFoundError(f"policy file not found: {path.resolve()}")
         payload = load_weights(path, _EXPECTED)
-        self._setup(payload, name or path.parent.name or path.stem, str(path))
+        self._setup(payload, name or str(path), str(path))
         self.path: Path | None = path
 
     @classmethod
