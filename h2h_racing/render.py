@@ -12,6 +12,8 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from h2h_racing.track_lookup import MAX_SAMPLES
+
 if TYPE_CHECKING:
     from h2h_racing.core import RaceCore
     from h2h_racing.track import Track
@@ -75,8 +77,10 @@ class SpectatorRenderer:
         cv2.fillPoly(img, [inner], FLOOR, lineType=cv2.LINE_AA)
         thickness = max(1, int(round(0.05 * self.scale)))
         cv2.polylines(img, [left, right], True, BORDER, thickness, cv2.LINE_AA)
-        # Dashed centre line: 0.3 m dashes every 0.6 m.
-        s = np.arange(0.0, track.length, 0.1)
+        # Dashed centre line: 0.3 m dashes every 0.6 m, sampled no finer than half a pixel and
+        # in at most MAX_SAMPLES samples (a lap of thousands of km would not fit in memory).
+        step = max(0.1, 0.5 / self.scale, track.length / MAX_SAMPLES)
+        s = np.arange(0.0, track.length, step)
         pts = self.to_pixels(track.point_at(s))
         dash = (np.floor(s / 0.3).astype(int) % 2) == 0
         for i in np.flatnonzero(dash[:-1] & dash[1:]):

@@ -54,7 +54,11 @@ BORDER_TOLERANCE = 0.005
 """Largest overlap [m] of an explicit (file-given) border crossing that is accepted as a drawing glitch."""
 
 _ALL = np.zeros(0, dtype=bool)  # an empty mask means "project every point"
-_CHUNK_ELEMENTS = 2_000_000  # size of the (cells x segments) blocks of the exact grid build / fallback
+_CHUNK_ELEMENTS = 2_000_000  # size of the (segments x segments) blocks of the crossing check
+# Size of the (cells x segments) blocks of the projection grid build: each block holds about ten
+# temporaries of 8-16 bytes per element, so 2**17 elements keep the build near 20 MiB (2M took
+# ~140 MiB, the peak of every process).
+_GRID_CHUNK_ELEMENTS = 1 << 17
 
 
 def _ro(a: np.ndarray) -> np.ndarray:
@@ -692,7 +696,7 @@ class Projector:
         centres = (gx[:, None] + 1j * gy[None, :]).ravel()
         nearest = np.empty(len(centres), dtype=np.intp)
         outside = np.empty(len(centres))
-        step = max(1, _CHUNK_ELEMENTS // m)
+        step = max(1, _GRID_CHUNK_ELEMENTS // m)
         seg_ids = np.arange(m)
         for a in range(0, len(centres), step):
             zz = centres[a : a + step, None]

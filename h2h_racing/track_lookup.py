@@ -7,6 +7,11 @@ samples those same functions once on a uniform grid of step ``ds`` (2 cm by defa
 kernel evaluates a field with one multiply and one linear interpolation. The tables are
 derived from ``Track``'s own methods, so the geometry has one source of truth; the
 resampling error is below 1e-4 of the field's range for the shipped tracks.
+
+The tables hold at most ``MAX_SAMPLES`` samples each (8 MiB a table, 64 MiB in all): a lap
+longer than ``MAX_SAMPLES * ds`` (21 km at 2 cm, longer than any real circuit) is sampled
+more coarsely instead, so no track (a route file in millimetres makes a lap of thousands of
+km) can make the tables outgrow memory.
 """
 
 from __future__ import annotations
@@ -26,6 +31,8 @@ FloatArray = npt.NDArray[np.float64]
 
 DEFAULT_DS = 0.02
 """Default table spacing along the centre line [m]."""
+MAX_SAMPLES = 1 << 20
+"""Most samples per table; longer laps get a coarser spacing than the one asked for."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -54,8 +61,9 @@ class TrackLookup:
 
     @classmethod
     def from_track(cls, track: Track, ds: float = DEFAULT_DS) -> TrackLookup:
-        """Sample ``track``'s fields every ``ds`` metres (rounded so that K * ds = L)."""
-        count = max(8, int(math.ceil(track.length / ds)))
+        """Sample ``track``'s fields every ``ds`` metres (rounded so that K * ds = L), or in
+        ``MAX_SAMPLES`` samples where that spacing would need more."""
+        count = min(MAX_SAMPLES, max(8, int(math.ceil(track.length / ds))))
         s = np.linspace(0.0, track.length, count + 1)
         heading = np.unwrap(track.heading_at(s))
         left, right = track.half_widths_at(s)

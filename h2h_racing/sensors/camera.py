@@ -48,6 +48,7 @@ from gymnasium import spaces
 from numba import njit
 
 from h2h_racing.config import CameraConfig
+from h2h_racing.track_lookup import MAX_SAMPLES
 
 if TYPE_CHECKING:
     from h2h_racing.config import CarParams
@@ -157,8 +158,9 @@ class GroundTexture:
         cv2.fillPoly(img, [inner], FLOOR, cv2.LINE_8, SHIFT)
         border_px = max(1, round(BORDER_LINE_M / res))
         cv2.polylines(img, [left, right], True, BORDER, border_px, cv2.LINE_8, SHIFT)
-        # Dashed centre line: DASH_M on, DASH_M off, sampled every centimetre.
-        step = min(0.01, DASH_M / 4)
+        # Dashed centre line: DASH_M on, DASH_M off, sampled every centimetre (in at most
+        # MAX_SAMPLES samples: a lap of thousands of km gets coarser, aliased dashes).
+        step = max(min(0.01, DASH_M / 4), track.length / MAX_SAMPLES)
         s = np.arange(0.0, track.length, step)
         on = (np.floor(s / DASH_M).astype(np.int64) % 2) == 0
         pts = self.to_pixels(track.point_at(s))

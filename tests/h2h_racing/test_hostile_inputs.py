@@ -148,3 +148,69 @@ def test_car_with_no_clear_spot_stays_frozen_until_one_clears() -> None:
     np.testing.assert_allclose(core.position[0, 0], spots[0], atol=1e-9)
     assert replacement_overlap(core, ev.replaced).max() == 0.0
     assert core.racing[0, 0]
+
+
+# --------------------------------------------------------------------------- memory
+
+# Run in a child whose address space may grow by at most 1 GiB beyond what its imports took,
+# so a table that outgrows memory fails there (MemoryError) instead of taking the machine.
+HUGE_TRACK_CHILD = r"""
+import json, resource, sys, tracemalloc
+import numpy as np
+import h2h_racing
+from h2h_racing.render import SpectatorRenderer
+from h2h_racing.track_io import load_track
+from h2h_racing.track_lookup import TrackLookup
+
+path = sys.argv[1]
+# A DeepRacer route written in millimetres: a circle of radius 1e6 (m, as read), 1,000 wide.
+a = np.linspace(0.0, 2.0 * np.pi, 200, endpoint=False)
+rings = [r * np.stack([np.cos(a), np.sin(a)], axis=1) for r in (1e6, 1e6 - 500.0, 1e6 + 500.0)]
+route = np.concatenate(rings, axis=1)
+np.save(path, np.concatenate([route, route[:1]]))
+with open("/proc/self/status") as status:
+    vm = next(int(line.split()[1]) for line in status if line.startswith("VmSize:")) << 10
+resource.setrlimit(resource.RLIMIT_AS, (vm + (1 << 30), vm + (1 << 30)))
+tracemalloc.start()
+track = load_track(path)
+lookup = TrackLookup.from_track(track)
+track.projector()
+env = h2h_racing.parallel_env(track=path, num_cars=2, sensors=("state", "lidar", "camera"))
+env.reset(seed=0)
+env.step({agent: env.action_space(agent).sample() for agent in env.agents})
+SpectatorRenderer(track)
+print(json.dumps({"length": track.length, "samples": len(lookup.x),
+                  "peak": tracemalloc.get_traced_memory()[1]}))
+"""
+
+
+def test_huge_track_tables_stay_bounded(tmp_path) -> None:
+    # Before the fix the 2 cm lookup table alone asked for 8 x 2.3 GiB (the process grew to
+    # 23 GB); the camera's centre-line dashes asked for 4.7 GiB and the spectator's 0.5 GiB.
+    import json
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-c", HUGE_TRACK_CHILD, str(tmp_path / "mm.npy")],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert out["length"] > 6e6
+    assert out["samples"] == (1 << 20) + 1  # track_lookup.MAX_SAMPLES, ds = 6 m
+    assert out["peak"] < 512 << 20, f"traced peak {out['peak'] >> 20} MiB"
+
+
+def test_projection_grid_builds_in_small_chunks() -> None:
+    # Projector.build took ~140 MiB at its peak for a shipped track (every process's peak).
+    import tracemalloc
+
+    from h2h_racing.track import Projector
+
+    track = load_track("speedway")
+    tracemalloc.start()
+    try:
+        Projector.build(track)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 40 << 20, f"Projector.build peak {peak >> 20} MiB"
