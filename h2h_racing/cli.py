@@ -241,37 +241,42 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 
 
 def _evaluate_head_to_head(args: argparse.Namespace) -> int:
-    from h2h_racing.league.evaluate import head_to_head
+    from h2h_racing.league.evaluate import (combine, head_to_head, head_to_head_header,
+                                            head_to_head_row)
     from h2h_racing.policies import make_driver
     from h2h_racing.track_io import list_tracks
 
-    if args.races < 2 or args.races % 2:
-        print(f"error: --races must be an even number >= 2 (every start in both seat orders), "
-              f"got {args.races}", file=sys.stderr)
+    if args.start == "both" and (args.races < 2 or args.races % 2):
+        print(f"error: --races must be an even number >= 2 with --start both (every start in "
+              f"both seat orders), got {args.races}", file=sys.stderr)
         return 2
     tracks = list_tracks() if args.track == "all" else args.track.split(",")
     policy = make_driver(args.policy, seed=args.seed)
+    grid = {"both": "every start point in both seat orders", "behind": "the policy starts "
+            "behind", "front": "the policy starts in front"}[args.start]
+    gap = f", {args.gap:g} m grid gap" if args.gap is not None else ""
     print(f"{args.policy}: {args.races} two-car races of {args.laps} laps per track and opponent "
-          f"(race rules: 5 s penalties), every start point in both seat orders")
-    print(f"{'track':<16} {'opponent':<16} {'won':>9} {'overtakes':>10} {'crashes':>8} "
-          f"{'finished':>9}")
-    totals: dict[str, list[int]] = {}
+          f"(race rules: 5 s penalties), {grid}{gap}")
+    print(head_to_head_header())
+    results: dict[str, list] = {}
     for opponent in args.against.split(","):
         for track in tracks:
-            result = head_to_head(policy, make_driver(opponent, seed=args.seed + 1), track,
-                                  races=args.races,
-                                  laps=args.laps, seed=args.seed)
-            row = [result.wins[0], result.overtakes[0], result.overtakes[1],
-                   result.crashes[0], result.crashes[1], result.races]
-            totals[opponent] = [a + b for a, b in zip(totals.get(opponent, [0] * 6), row)]
-            print(f"{result.track:<16} {opponent:<16} {result.wins[0]:>4} / {result.races:<3} "
-                  f"{result.overtakes[0]:>4} / {result.overtakes[1]:<3} "
-                  f"{result.crashes[0]:>3} / {result.crashes[1]:<2} "
-                  f"{result.finished[0]:>4} / {result.finished[1]:<2}")
-    for opponent, (won, ours, theirs, crash, crashed, races) in totals.items():
-        print(f"{'all':<16} {opponent:<16} {won:>4} / {races:<3} {ours:>4} / {theirs:<3} "
-              f"{crash:>3} / {crashed:<2} ({100 * won / races:.0f} % won)")
-    print("overtakes, crashes caused and finishes: the policy's / the opponent's")
+            try:
+                result = head_to_head(policy, make_driver(opponent, seed=args.seed + 1), track,
+                                      races=args.races, laps=args.laps, seed=args.seed,
+                                      start=args.start, gap=args.gap)
+            except ValueError as err:
+                print(f"error: {err}", file=sys.stderr)
+                return 2
+            results.setdefault(opponent, []).append(result)
+            print(head_to_head_row(result, opponent))
+    for opponent, rows in results.items():
+        total = combine(rows)
+        print(f"{head_to_head_row(total, opponent)} ({100 * total.wins[0] / total.races:.0f} % "
+              "won)")
+    print("won: the policy's wins (of all races, from the slot behind, from the front slot); "
+          "per race: the policy's / the opponent's; a defence: the other car was under 1 m "
+          "behind for 2 s, faster at some moment, and dropped back without passing")
     return 0
 
 
@@ -379,8 +384,15 @@ def build_parser() -> argparse.ArgumentParser:
                           help="comma-separated opponents: race the policy head to head against "
                                "each (2-car races; --track may be a comma list or 'all')")
     evaluate.add_argument("--races", type=int, default=20,
-                          help="races per track and opponent with --against (even: both seat "
-                               "orders of every start)")
+                          help="races per track and opponent with --against (even with --start "
+                               "both: both seat orders of every start)")
+    evaluate.add_argument("--start", default="both", choices=["both", "behind", "front"],
+                          help="the policy's grid slot with --against: both (alternating on "
+                               "the same start points), behind (every win is a pass) or front "
+                               "(default: both)")
+    evaluate.add_argument("--gap", type=float, default=None, metavar="METRES",
+                          help="distance the car behind starts behind the other [m of track] "
+                               "with --against, a standing start (default: the grid's 0.75)")
     evaluate.add_argument("--laps", type=int, default=3, help="laps per race with --against")
     evaluate.set_defaults(func=_cmd_evaluate)
 

@@ -86,7 +86,11 @@ def evaluate(driver: Any, track: str | Track, episodes: int = 20, seed: int = 0,
 
 @dataclass(frozen=True)
 class HeadToHead:
-    """Outcome of ``races`` 2-car races between two drivers, half in each seat order."""
+    """Outcome of ``races`` 2-car races between two drivers (A, B).
+
+    Tuples hold A's figure, then B's. The grid figures are A's: the slot behind starts
+    ``gap`` metres of track behind the front slot, so a race won from behind needed a pass.
+    """
 
     drivers: tuple[str, str]
     track: str
@@ -99,37 +103,90 @@ class HeadToHead:
     """Contacts each driver was judged to have caused (it was behind)."""
     finished: tuple[int, int]
     """Races each driver finished."""
+    races_behind: int = 0
+    """Races A started from the slot behind."""
+    wins_behind: int = 0
+    """Of those, races A won (it passed B and stayed ahead)."""
+    races_front: int = 0
+    """Races A started from the front slot."""
+    wins_front: int = 0
+    """Of those, races A won (it kept B behind, or re-passed it)."""
+    defences: tuple[int, int] = (0, 0)
+    """Defences by each driver, over all races: the other car pressured it (less than
+    ``RaceRules.defence_gap`` = 1 m of track behind for at least ``defence_time`` = 2 s, and
+    faster at some moment) and dropped back without passing (``h2h_racing.race``)."""
+    start: str = "both"
+    """A's grid slot (``START_CHOICES``)."""
+    gap: float = 0.75
+    """Distance between the grid slots [m of track]."""
+
+    def per_race(self, counts: tuple[int, int]) -> float:
+        """A's share of ``counts`` (e.g. ``overtakes``) per race."""
+        return counts[0] / self.races
 
     def summary(self) -> str:
         """A short text report."""
         a, b = self.drivers
-        return (f"{self.track}, {self.races} races ({self.races // 2} in each seat order): "
-                f"{a} won {self.wins[0]}, {b} won {self.wins[1]}; overtakes {self.overtakes[0]} / "
-                f"{self.overtakes[1]}; crashes caused {self.crashes[0]} / {self.crashes[1]}; "
+        grid = {"both": f"{self.races_behind} from behind, {self.races_front} from the front",
+                "behind": "all from behind", "front": "all from the front"}[self.start]
+        return (f"{self.track}, {self.races} races ({grid}, grid gap {self.gap:g} m): "
+                f"{a} won {self.wins[0]}, {b} won {self.wins[1]}; {a} won "
+                f"{self.wins_behind}/{self.races_behind} from behind and "
+                f"{self.wins_front}/{self.races_front} from the front; overtakes "
+                f"{self.overtakes[0]} / {self.overtakes[1]}; crashes caused {self.crashes[0]} / "
+                f"{self.crashes[1]}; defences {self.defences[0]} / {self.defences[1]}; "
                 f"finished {self.finished[0]} / {self.finished[1]}")
 
 
+def grid_slots(races: int, start: str) -> np.ndarray:
+    """Grid slot of each car (A, B) in each race, shape (races, 2); slot 1 is behind.
+
+    Raises:
+        ValueError: For an unknown ``start``, or ``both`` with an odd or too small ``races``.
+    """
+    if start not in START_CHOICES:
+        raise ValueError(f"start must be one of {', '.join(START_CHOICES)}, got {start!r}")
+    if start == "both" and (races < 2 or races % 2):
+        raise ValueError(f"races must be an even number >= 2 with start='both' (both seat "
+                         f"orders on every start point), got {races}")
+    if races < 1:
+        raise ValueError(f"races must be at least 1, got {races}")
+    behind = {"both": np.arange(races) % 2, "behind": np.ones(races, dtype=np.int64),
+              "front": np.zeros(races, dtype=np.int64)}[start]
+    return np.stack([behind, 1 - behind], axis=1)
+
+
 def head_to_head(driver_a: Any, driver_b: Any, track: str, races: int = 20, laps: int = 3,
-                 seed: int = 0) -> HeadToHead:
+                 seed: int = 0, start: str = "both", gap: float | None = None) -> HeadToHead:
     """Race two drivers against each other ``races`` times, all at once as env copies.
 
-    Race pair k (copies 2k and 2k + 1) starts at a random point of the lap drawn from
-    ``seed``, with driver A on grid slot 0 in one copy and slot 1 in the other (every start in
-    both seat orders), ``head_to_head`` race rules (time penalties, not retirement) and
-    ``laps`` laps counted from that start.
+    With ``start="both"``, race pair k (copies 2k and 2k + 1) starts at a random point of the
+    lap drawn from ``seed``, with driver A on grid slot 0 in one copy and slot 1 in the other
+    (every start in both seat orders); with ``"behind"`` (``"front"``) every race starts at
+    its own random point with A in the slot behind (in front). ``head_to_head`` race rules
+    (time penalties, not retirement) and ``laps`` laps counted from the front slot.
+
+    Args:
+        gap: Distance of the slot behind [m of track] (a standing start); None keeps the
+            grid's 0.75 m (DeepRacer's). At most a quarter of the lap.
     """
     from h2h_racing.policies import make_driver
 
+    slots = grid_slots(races, start)
+    loaded = load_track(track)
+    spacing = EnvConfig.grid_spacing if gap is None else gap
+    if not (isinstance(spacing, (int, float)) and 0.0 < spacing <= loaded.length / 4):
+        raise ValueError(f"gap must be a distance in (0, {loaded.length / 4:.1f}] m (a quarter "
+                         f"of {loaded.name}'s lap), got {gap!r}")
     drivers = [make_driver(d, seed=seed + car) if isinstance(d, str) else d
                for car, d in enumerate((driver_a, driver_b))]
     rules = RaceRules(laps=laps, time_limit=60.0 * laps)
-    env_config = EnvConfig(track=track, num_cars=2, race_type="head_to_head", rules=rules)
-    loaded = load_track(track)
-    if races < 2 or races % 2:
-        raise ValueError(f"races must be an even number >= 2 (both seat orders), got {races}")
+    env_config = EnvConfig(track=track, num_cars=2, race_type="head_to_head", rules=rules,
+                           grid_spacing=float(spacing))
     core = RaceCore(env_config, loaded, num_envs=races)
-    slots = np.stack([np.arange(races) % 2, 1 - np.arange(races) % 2], axis=1)
-    starts = np.repeat(np.random.default_rng(seed).uniform(0.0, loaded.length, races // 2), 2)
+    rng = np.random.default_rng(seed)
+    starts = (np.repeat(rng.uniform(0.0, loaded.length, races // 2), 2) if start == "both"
+              else rng.uniform(0.0, loaded.length, races))
     core.reset(seed=seed, slots=slots, start=starts)
     for driver in drivers:
         driver.reset(core)
@@ -137,10 +194,63 @@ def head_to_head(driver_a: Any, driver_b: Any, track: str, races: int = 20, laps
         core.step(*env_config.commands(np.stack([d.act(core, car)
                                                  for car, d in enumerate(drivers)], axis=1)))
     winner = (core.rank == 1) & core.finished
+    behind = slots[:, 0] == 1
     names = tuple(getattr(d, "name", type(d).__name__) for d in drivers)
+
+    def pair(values: np.ndarray) -> tuple[int, int]:
+        return int(values[:, 0].sum()), int(values[:, 1].sum())
+
     return HeadToHead(
         drivers=(names[0], names[1]), track=loaded.name, races=races,
-        wins=(int(winner[:, 0].sum()), int(winner[:, 1].sum())),
-        overtakes=(int(core.overtakes[:, 0].sum()), int(core.overtakes[:, 1].sum())),
-        crashes=(int(core.crashes[:, 0].sum()), int(core.crashes[:, 1].sum())),
-        finished=(int(core.finished[:, 0].sum()), int(core.finished[:, 1].sum())))
+        wins=pair(winner), overtakes=pair(core.overtakes), crashes=pair(core.crashes),
+        finished=pair(core.finished), races_behind=int(behind.sum()),
+        wins_behind=int(winner[behind, 0].sum()), races_front=int((~behind).sum()),
+        wins_front=int(winner[~behind, 0].sum()), defences=pair(core.defences), start=start,
+        gap=float(spacing))
+
+
+def combine(results: list[HeadToHead], track: str = "all") -> HeadToHead:
+    """Sum the races of ``results`` (same two drivers; e.g. one per track) into one record."""
+    if not results:
+        raise ValueError("combine needs at least one HeadToHead result")
+
+    def total(name: str) -> Any:
+        values = [getattr(r, name) for r in results]
+        if isinstance(values[0], tuple):
+            return tuple(int(sum(v[i] for v in values)) for i in range(2))
+        return int(sum(values))
+
+    starts = {r.start for r in results}
+    gaps = {r.gap for r in results}
+    return HeadToHead(
+        drivers=results[0].drivers, track=track, races=total("races"), wins=total("wins"),
+        overtakes=total("overtakes"), crashes=total("crashes"), finished=total("finished"),
+        races_behind=total("races_behind"), wins_behind=total("wins_behind"),
+        races_front=total("races_front"), wins_front=total("wins_front"),
+        defences=total("defences"), start=starts.pop() if len(starts) == 1 else "both",
+        gap=gaps.pop() if len(gaps) == 1 else float("nan"))
+
+
+def head_to_head_header() -> str:
+    """Header of ``head_to_head_row``'s table."""
+    return (f"{'track':<16} {'opponent':<16} {'won':>11} {'from behind':>11} "
+            f"{'from front':>11} {'passes/race':>12} {'crashes/race':>12} "
+            f"{'defences/race':>13} {'finished':>11}")
+
+
+def head_to_head_row(result: HeadToHead, opponent: str) -> str:
+    """One row of the evaluation table of ``evaluate --against``: A's wins overall, from
+    behind and from the front, then passes, crashes caused and defences per race and
+    finishes as A's / B's."""
+    def ratio(won: int, of: int) -> str:
+        return f"{won} / {of}" if of else "-"
+
+    def per_race(counts: tuple[int, int]) -> str:
+        return f"{counts[0] / result.races:.2f} / {counts[1] / result.races:.2f}"
+
+    return (f"{result.track:<16} {opponent:<16} {ratio(result.wins[0], result.races):>11} "
+            f"{ratio(result.wins_behind, result.races_behind):>11} "
+            f"{ratio(result.wins_front, result.races_front):>11} "
+            f"{per_race(result.overtakes):>12} {per_race(result.crashes):>12} "
+            f"{per_race(result.defences):>13} "
+            f"{ratio(*result.finished):>11}")

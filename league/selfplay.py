@@ -11,8 +11,10 @@ its own batched ``RacingVecEnv`` with one learner car and one opponent car per e
 2. **Training**: every learner runs ``iterations_per_round`` PPO iterations (in parallel on
    the backend's workers) and saves ``learners/<name>/latest.pt`` and its runner state.
 3. **Evaluation**: each learner races every pool member (and the other learners) in 2-car races
-   under race rules, both seat orders on the same seeds; every race is a stored match and
-   updates the payoff table. With ``main_restore_margin`` set, a main agent whose record
+   under race rules, both seat orders on the same seeds; every race is a stored match, and
+   each pair of seat orders (legs) updates the payoff table as one result that the grid does
+   not decide (``league.racecraft``: a player that won both legs wins, a split goes to the
+   lower aggregate time). With ``main_restore_margin`` set, a main agent whose record
    against the anchors falls that far below its best gets its best state back (the exploit
    step of population-based training, the main's own past as the population); with
    ``main_finish_on_best`` the run also ends with each main at its best-record state.
@@ -21,7 +23,8 @@ its own batched ``RacingVecEnv`` with one learner car and one opponent car per e
    frozen into a new player; the main exploiter then restarts from the initial weights, a
    league exploiter does so with probability 0.25 (AlphaStar's rules).
 5. **Ratings**: each new snapshot plays placement races against every frozen player (anchors
-   and earlier snapshots); a Bradley-Terry fit over all placement races, anchored to
+   and earlier snapshots); a Bradley-Terry fit over all placement races (scored as pairs of
+   legs, as the payoff table), anchored to
    ``racing_line`` at 1000, is appended to the rating history at the league's step count.
 
 Everything lives in the league folder: ``league.sqlite`` (players, matches, ratings), the
@@ -584,8 +587,15 @@ class League:
     def _payoff(self) -> Any:
         from h2h_racing.league.pfsp import Payoff
 
-        return Payoff.from_races(self.store.races(context=self._context("eval")),
-                                 decay=self.config.payoff_decay)
+        return Payoff.from_races(self._paired("eval"), decay=self.config.payoff_decay)
+
+    def _paired(self, kind: str) -> list[dict[str, float]]:
+        """Results of the stored ``kind`` races, both legs of a start point (one from each
+        grid slot) scored as one result so the grid does not decide it
+        (``league.racecraft``)."""
+        from h2h_racing.league.racecraft import paired_races
+
+        return paired_races(self.store.matches(context=self._context(kind))).races
 
     def _context(self, kind: str) -> str:
         return f"league:{self.config.name}:{kind}"
@@ -805,7 +815,7 @@ class League:
     def _rate(self) -> None:
         from h2h_racing.league.ratings import standings
 
-        races = self.store.races(context=self._context("placement"))
+        races = self._paired("placement")
         if not races:
             return
         rows = standings(races, anchor=self.config.rating_anchor, n_boot=100,
@@ -818,7 +828,7 @@ class League:
         """Current standings of the frozen players (placement races)."""
         from h2h_racing.league.ratings import standings
 
-        races = self.store.races(context=self._context("placement"))
+        races = self._paired("placement")
         return standings(races, anchor=self.config.rating_anchor, n_boot=100,
                          rng=np.random.default_rng(self.config.seed)) if races else []
 
@@ -830,6 +840,21 @@ class League:
               f"top: {top}  (train {self.timings.get('train', 0):.0f} s, evaluate "
               f"{self.timings.get('evaluate', 0):.0f} s, place {self.timings.get('place', 0):.0f} s)",
               file=self.out, flush=True)
+        self._show_racecraft(round_index)
+
+    def _show_racecraft(self, round_index: int) -> None:
+        """Each learner's record against the anchors in the round's evaluation races, by
+        grid slot (``league.racecraft``)."""
+        from h2h_racing.league.racecraft import racecraft_records
+
+        context = self._context("eval")
+        matches = [m for m in self.store.matches(context=context)
+                   if _round_of(m.key, context) == round_index]
+        for spec in self.config.learners:
+            record = racecraft_records(matches, spec.name, self.config.anchors).get("all")
+            if record is not None:
+                record = dataclasses.replace(record, opponent="the anchors")
+                print(f"  {record.line()}", file=self.out, flush=True)
 
     def close(self) -> None:
         """Release the store and the backend."""

@@ -56,6 +56,102 @@ class TestHeadToHead:
             head_to_head("racing_line", "pure_pursuit", "oval", races=3)
 
 
+class TestGridProtocols:
+    """``head_to_head(start=..., gap=...)``: results by grid slot, the from-behind protocol."""
+
+    def test_grid_slots_by_protocol(self) -> None:
+        import pytest
+
+        from h2h_racing.league.evaluate import grid_slots
+
+        # Columns: A's slot, B's slot; slot 1 is the one behind.
+        assert grid_slots(4, "both").tolist() == [[0, 1], [1, 0], [0, 1], [1, 0]]
+        assert grid_slots(3, "behind").tolist() == [[1, 0]] * 3
+        assert grid_slots(2, "front").tolist() == [[0, 1]] * 2
+        with pytest.raises(ValueError, match="start must be one of both, behind, front"):
+            grid_slots(2, "side")
+        with pytest.raises(ValueError, match="at least 1"):
+            grid_slots(0, "behind")
+
+    def test_the_faster_car_wins_from_behind_by_passing(self) -> None:
+        from h2h_racing.league.evaluate import head_to_head
+
+        # ~6 s against ~8.7 s a lap of the oval (policies/README): from 0.75 m behind the
+        # racing line must pass pure pursuit once in each race, and wins them all.
+        result = head_to_head("racing_line", "pure_pursuit", "oval", races=2, laps=1,
+                              start="behind")
+        assert (result.races_behind, result.wins_behind) == (2, 2)
+        assert (result.races_front, result.wins_front) == (0, 0)
+        assert result.overtakes[0] >= 2 and result.overtakes[1] == 0
+        assert "won 2/2 from behind and 0/0 from the front" in result.summary()
+
+    def test_the_slower_car_loses_from_the_front(self) -> None:
+        from h2h_racing.league.evaluate import head_to_head
+
+        result = head_to_head("pure_pursuit", "racing_line", "oval", races=2, laps=1,
+                              start="front")
+        assert (result.races_front, result.wins_front, result.wins) == (2, 0, (0, 2))
+        assert result.overtakes[1] >= 2
+
+    def test_both_splits_the_wins_by_slot(self) -> None:
+        from h2h_racing.league.evaluate import head_to_head
+
+        result = head_to_head("racing_line", "pure_pursuit", "oval", races=4, laps=1)
+        assert (result.races_behind, result.races_front) == (2, 2)
+        assert result.wins_behind + result.wins_front == result.wins[0] == 4
+
+    def test_gap_sets_how_far_behind_the_driver_starts(self) -> None:
+        from h2h_racing.policies import make_driver
+        from h2h_racing.league.evaluate import head_to_head
+
+        class Spy:
+            """The racing line, noting the cars' race distances at the start."""
+
+            name = "spy"
+
+            def __init__(self) -> None:
+                self.inner = make_driver("racing_line")
+                self.start = np.zeros(0)
+
+            def reset(self, core) -> None:
+                self.start = core.distance.copy()
+                self.inner.reset(core)
+
+            def act(self, core, car):
+                return self.inner.act(core, car)
+
+        spy = Spy()
+        head_to_head(spy, "pure_pursuit", "oval", races=2, laps=1, start="behind", gap=2.5)
+        # Slot 1 starts 2.5 m of track behind slot 0: A's distance minus B's is -2.5.
+        assert np.allclose(spy.start[:, 0] - spy.start[:, 1], -2.5)
+
+    def test_gap_must_fit_the_track(self) -> None:
+        import pytest
+
+        from h2h_racing.league.evaluate import head_to_head
+
+        for gap in (0.0, -1.0, 1e6, float("nan")):
+            with pytest.raises(ValueError, match="gap must be a distance"):
+                head_to_head("racing_line", "pure_pursuit", "oval", races=2, gap=gap)
+
+    def test_combine_sums_tracks(self) -> None:
+        from h2h_racing.league.evaluate import HeadToHead, combine
+
+        one = HeadToHead(drivers=("a", "b"), track="oval", races=4, wins=(3, 1),
+                         overtakes=(2, 1), crashes=(1, 0), finished=(4, 4), races_behind=2,
+                         wins_behind=1, races_front=2, wins_front=2, defences=(0, 1))
+        two = HeadToHead(drivers=("a", "b"), track="speedway", races=2, wins=(0, 2),
+                         overtakes=(0, 3), crashes=(2, 2), finished=(1, 2), races_behind=1,
+                         wins_behind=0, races_front=1, wins_front=0, defences=(1, 1))
+        total = combine([one, two])
+        assert total.track == "all" and total.races == 6 and total.wins == (3, 3)
+        assert (total.races_behind, total.wins_behind, total.races_front,
+                total.wins_front) == (3, 1, 3, 2)
+        assert total.overtakes == (2, 4) and total.crashes == (3, 2)
+        assert total.defences == (1, 2) and total.finished == (5, 6)
+        assert total.per_race(total.crashes) == 0.5
+
+
 class TestStartPoints:
     """RaceCore.reset(start=...) moves the race's start and finish line."""
 
@@ -87,8 +183,29 @@ class TestEvaluateCli:
         assert len(rows) == 1 and len(total) == 1
         # The racing line laps the oval in ~6 s against pure pursuit's ~8.7 s (policies/README):
         # it wins both races, one from each grid slot, and the total repeats the single track.
-        assert rows[0].split()[2:5] == ["2", "/", "2"]
+        assert rows[0].split()[2:11] == ["2", "/", "2", "1", "/", "1", "1", "/", "1"]
         assert "(100 % won)" in total[0]
+
+    def test_from_behind_rows(self, capsys) -> None:
+        from h2h_racing.cli import main
+
+        # --start behind takes an odd race count: there are no seat-order pairs to keep.
+        assert main(["evaluate", "--policy", "racing_line", "--against", "pure_pursuit",
+                     "--track", "oval", "--races", "1", "--laps", "1", "--start", "behind",
+                     "--gap", "2"]) == 0
+        out = capsys.readouterr().out
+        row = next(line for line in out.splitlines() if line.startswith("oval"))
+        # Won 1 of 1, 1 of 1 from behind, none from the front, and it had to pass to win.
+        assert row.split()[2:9] == ["1", "/", "1", "1", "/", "1", "-"]
+        assert float(row.split()[9]) >= 1.0
+        assert "the policy starts behind, 2 m grid gap" in out
+
+    def test_bad_gap_is_refused(self, capsys) -> None:
+        from h2h_racing.cli import main
+
+        assert main(["evaluate", "--policy", "racing_line", "--against", "pure_pursuit",
+                     "--track", "oval", "--races", "2", "--gap", "-1"]) == 2
+        assert "gap must be a distance in (0, " in capsys.readouterr().err
 
     def test_odd_race_count_is_refused(self, capsys) -> None:
         from h2h_racing.cli import main
