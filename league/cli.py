@@ -185,7 +185,7 @@ def _trends(store: Any, rows: Any) -> str:
 
 
 def _cmd_league_plot(args: argparse.Namespace) -> int:
-    from h2h_racing.league.plots import plot_ratings, plot_win_matrix
+    from h2h_racing.league.plots import plot_ratings, plot_standings, plot_win_matrix
     from h2h_racing.league.ratings import pairwise
     from h2h_racing.league.store import LeagueStore
 
@@ -200,7 +200,11 @@ def _cmd_league_plot(args: argparse.Namespace) -> int:
     written = []
     if history:
         path = out / "ratings.png"
-        plot_ratings(rating_series(history, players), path)
+        if any(player.parent for player in players.values()):
+            plot_ratings(rating_series(history, players), path)
+        else:
+            # A tournament: nobody trained, so the ratings have no time axis to be drawn over.
+            plot_standings({name: rows[-1][1:] for name, rows in history.items()}, path)
         written.append(path)
     if races:
         shown = matrix_players(races, history, players, args.players)
@@ -314,7 +318,8 @@ def add_commands(sub: Any) -> None:
     table.add_argument("--anchor", default="racing_line", help="player rated 1000")
     table.add_argument("--boot", type=int, default=200, help="bootstrap resamples")
     table.set_defaults(func=_league_errors(_cmd_league_table))
-    plot = lsub.add_parser("plot", help="PNGs of ratings over training and the win matrix")
+    plot = lsub.add_parser("plot", help="PNGs of the ratings (over training in a league) and "
+                                        "the win matrix")
     plot.add_argument("--league", default=DEFAULT_LEAGUE, help=LEAGUE_FILE_HELP)
     plot.add_argument("--context", default=None, help="matches of the win matrix (prefix)")
     plot.add_argument("--out", default="plots", help="output folder")

@@ -48,6 +48,13 @@ def _save(fig: Any, path: str | Path) -> Path:
     return path
 
 
+LINE_STYLES = ("-", (0, (6, 3)), (0, (1.5, 2.5)), (0, (8, 3, 2, 3)))
+"""Line styles of the rating lines in turn, later lines drawn over earlier ones: players
+with the same ratings (two anchors, a snapshot and its copy) draw one line over another,
+and a dashed line over a solid one leaves both colours visible."""
+MARKERS = ("o", "s", "^", "D", "v", "P")
+
+
 def plot_ratings(history: Mapping[str, Sequence[tuple[float, float, float, float]]],
                  path: str | Path, xlabel: str = "training steps",
                  size: tuple[int, int] = (900, 540), title: str = "League ratings") -> Path:
@@ -66,7 +73,7 @@ def plot_ratings(history: Mapping[str, Sequence[tuple[float, float, float, float
         ``path``.
     """
     width, height = _check_size(size)
-    series = {}
+    series: dict[str, np.ndarray] = {}
     for player, points in history.items():
         array = np.asarray(points, dtype=np.float64)
         if array.ndim != 2 or array.shape[1] != 4 or len(array) == 0:
@@ -76,9 +83,11 @@ def plot_ratings(history: Mapping[str, Sequence[tuple[float, float, float, float
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(width / DPI, height / DPI), dpi=DPI)
     try:
-        for player, array in series.items():
+        for k, (player, array) in enumerate(series.items()):
             x, rating, low, high = array.T
-            (line,) = ax.plot(x, rating, marker="o" if len(x) == 1 else None, label=player)
+            (line,) = ax.plot(x, rating, linestyle=LINE_STYLES[k % len(LINE_STYLES)],
+                              marker=MARKERS[k % len(MARKERS)], markersize=4, zorder=2 + k,
+                              label=player)
             band = np.isfinite(low) & np.isfinite(high)
             ax.fill_between(x, low, high, where=band, color=line.get_color(), alpha=0.2,
                             linewidth=0)
@@ -89,6 +98,47 @@ def plot_ratings(history: Mapping[str, Sequence[tuple[float, float, float, float
         if series:
             ax.legend(loc="best", fontsize="small")
         fig.tight_layout()
+        return _save(fig, path)
+    finally:
+        plt.close(fig)
+
+
+def plot_standings(ratings: Mapping[str, tuple[float, float, float]], path: str | Path,
+                   size: tuple[int, int] | None = None,
+                   title: str = "Ratings with 90 % intervals") -> Path:
+    """Plot players' ratings as points with their intervals, best at the top: the ratings
+    figure of a tournament, whose players did not train (no time axis to draw them over).
+
+    Args:
+        ratings: ``{player: (rating, low, high)}`` in Elo; NaN bounds draw no interval.
+        path: PNG file to write (folders are created).
+        size: (width, height) [px]; None gives 800 x (160 + 28 per player).
+        title: Figure title.
+
+    Returns:
+        ``path``.
+    """
+    rows = sorted(((float(r), float(lo), float(hi), name) for name, (r, lo, hi)
+                   in ratings.items()), key=lambda row: (-row[0], row[3]))
+    if not rows or not all(np.isfinite(row[0]) for row in rows):
+        raise ValueError(f"ratings must be a non-empty mapping of finite ratings, got "
+                         f"{dict(ratings)!r}")
+    width, height = _check_size((800, 160 + 28 * len(rows)) if size is None else size)
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(width / DPI, height / DPI), dpi=DPI, layout="constrained")
+    try:
+        rating, low, high = (np.array(column) for column in list(zip(*rows))[:3])
+        y = np.arange(len(rows))
+        known = np.isfinite(low) & np.isfinite(high)
+        ax.errorbar(rating[known], y[known], xerr=[rating[known] - low[known],
+                                                   high[known] - rating[known]],
+                    fmt="none", ecolor="grey", capsize=3)
+        ax.plot(rating, y, "o", color="C0")
+        ax.set_yticks(y, [row[3] for row in rows])
+        ax.invert_yaxis()
+        ax.set_xlabel("rating [Elo]")
+        ax.grid(axis="x", alpha=0.3)
+        fig.suptitle(title)
         return _save(fig, path)
     finally:
         plt.close(fig)
@@ -128,7 +178,9 @@ def plot_win_matrix(players: Sequence[str], win_rate: np.ndarray, games: np.ndar
     side = 300 + 60 * count
     width, height = _check_size((side, side) if size is None else size)
     plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(width / DPI, height / DPI), dpi=DPI)
+    # Constrained layout with a figure title: an axes title is centred over the matrix
+    # alone, and a long one ran into the colour bar beside it.
+    fig, ax = plt.subplots(figsize=(width / DPI, height / DPI), dpi=DPI, layout="constrained")
     try:
         cmap = plt.get_cmap("RdYlGn").with_extremes(bad="lightgrey")
         shown = np.ma.masked_array(np.where(met, rates, 0.0), mask=~met)
@@ -141,9 +193,8 @@ def plot_win_matrix(players: Sequence[str], win_rate: np.ndarray, games: np.ndar
         ax.set_yticks(range(count), names)
         ax.set_xlabel("opponent")
         ax.set_ylabel("player")
-        ax.set_title(title)
+        fig.suptitle(title)
         fig.colorbar(image, ax=ax, label="win rate")
-        fig.tight_layout()
         return _save(fig, path)
     finally:
         plt.close(fig)

@@ -74,3 +74,65 @@ def test_win_matrix_rows_are_the_best_rated_plus_anchors() -> None:
     assert matrix_players(races, {}, players, 3) == ["a", "c", "d", "anchor"]
     with pytest.raises(ValueError, match="--players must be >= 2"):
         matrix_players(races, history, players, 1)
+
+
+def _colour_pixels(image: np.ndarray, rgb: tuple[int, int, int], tolerance: int = 40) -> int:
+    bgr = np.array(rgb[::-1], dtype=np.int32)
+    return int(np.sum(np.all(np.abs(image.astype(np.int32) - bgr) <= tolerance, axis=-1)))
+
+
+def test_identical_ratings_leave_every_line_visible(tmp_path: Path) -> None:
+    # Two anchors rated the same: drawn solid, the second line would cover the first entirely
+    # (its colour left only in the legend's sample, ~40 pixels).
+    flat = [(0, 1000, math.nan, math.nan), (500, 1000, math.nan, math.nan)]
+    history = {"racing_line": flat, "pure_pursuit": list(flat),
+               "main": [(0, 800, math.nan, math.nan), (500, 1200, math.nan, math.nan)]}
+    image = read_png(plot_ratings(history, tmp_path / "ratings.png"))
+    first, second = (31, 119, 180), (255, 127, 14)  # matplotlib's C0 and C1
+    assert _colour_pixels(image, first) > 200, "the first of the identical lines is hidden"
+    assert _colour_pixels(image, second) > 200
+
+
+def test_win_matrix_title_clears_the_colour_bar(tmp_path: Path, monkeypatch) -> None:
+    import matplotlib.text
+
+    from h2h_racing.league import plots
+
+    boxes = {}
+
+    def capture(fig, path):
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        title = next(t for t in fig.findobj(matplotlib.text.Text)
+                     if t.get_text() == "Head-to-head win rate (row against column)")
+        boxes["title"] = title.get_window_extent(renderer)
+        boxes["colour bar"] = fig.axes[-1].get_tightbbox(renderer)  # the colour bar's axes
+        boxes["figure"] = fig.bbox
+        return Path(path)
+
+    monkeypatch.setattr(plots, "_save", capture)
+    names = ["racing_line", "pure_pursuit", "blocker"]
+    rates = np.array([[np.nan, 1.0, 0.5], [0.0, np.nan, 0.5], [0.5, 0.5, np.nan]])
+    games = np.array([[0, 2, 2], [2, 0, 2], [2, 2, 0]])
+    plot_win_matrix(names, rates, games, tmp_path / "m.png")
+    assert not boxes["title"].overlaps(boxes["colour bar"])
+    assert boxes["figure"].contains(boxes["title"].x0, boxes["title"].y0)
+    assert boxes["figure"].contains(boxes["title"].x1, boxes["title"].y1)
+
+
+def test_a_tournament_plots_ranked_intervals_not_a_training_axis(tmp_path: Path) -> None:
+    from h2h_racing.cli import main
+    from h2h_racing.league.store import LeagueStore, Player
+
+    league = tmp_path / "t.sqlite"
+    with LeagueStore(league) as store:
+        for name in ("racing_line", "pure_pursuit", "blocker"):
+            store.add_player(Player(name=name, kind="scripted"))
+        store.record_ratings("bradley_terry", {"racing_line": 1000.0, "pure_pursuit": 800.0,
+                                               "blocker": 900.0},
+                             intervals={"pure_pursuit": (700.0, 900.0),
+                                        "blocker": (850.0, 950.0)})
+    assert main(["league", "plot", "--league", str(league), "--out", str(tmp_path)]) == 0
+    # plot_standings' size for 3 players, 800 x (160 + 28 per player), not plot_ratings' 900
+    # x 540 over "training steps".
+    assert read_png(tmp_path / "ratings.png").shape == (244, 800, 3)
