@@ -25,7 +25,11 @@ CATALUNYA = SHARED / "centerline_csv" / "Catalunya.csv"
 
 
 def needs(path: Path) -> pytest.MarkDecorator:
-    return pytest.mark.skipif(not path.exists(), reason=f"real track data not available at {path}")
+    # The files are public but not ours to ship; README.md's "Tests" says where to get them.
+    return pytest.mark.skipif(
+        not path.exists(), reason=f"real track data not available at {path.resolve()}: "
+        "DeepRacer routes from aws-deepracer-community/deepracer-simapp (bundle/routes/*.npy), "
+        "Catalunya.csv from TUMFTM/racetrack-database (tracks/); see README.md, Tests")
 
 
 def square_rows(n_side: int = 4, side: float = 4.0) -> np.ndarray:

@@ -244,7 +244,9 @@ def route_files() -> list[Path]:
     return sorted(ROUTES.glob("*.npy")) if ROUTES.is_dir() else []
 
 
-@pytest.mark.skipif(not route_files(), reason=f"no DeepRacer route files in {ROUTES}")
+@pytest.mark.skipif(not route_files(), reason=f"no DeepRacer route files in {ROUTES.resolve()}: "
+                    "copy bundle/routes/*.npy of aws-deepracer-community/deepracer-simapp "
+                    "there; see README.md, Tests")
 class TestRealRoutes:
     """Params on the real route files (shared/data/deepracer_tracks)."""
 
