@@ -188,3 +188,19 @@ def test_sb3_example_trains_and_predicts(tmp_path):
     assert result["model"].num_timesteps == 256
     assert result["steps"] >= 1 and (result["terminated"] or result["truncated"])
     assert (tmp_path / "model.zip").is_file()
+
+
+def test_a_trained_policy_drives_an_opponent():
+    from h2h_racing.policies.trained import TrainedPolicy, shipped_policies
+
+    if not shipped_policies():
+        pytest.skip("no shipped policy")
+    name = next(iter(shipped_policies()))
+    env = _make(opponents=[name])
+    assert isinstance(env.unwrapped.opponents[0], TrainedPolicy)
+    env.reset(seed=0)
+    start = env.unwrapped.core.distance[0, 1]
+    for _ in range(30):
+        env.step(np.array([0.0, -1.0], np.float32))
+    # The trained car drove off the grid under its own policy.
+    assert env.unwrapped.core.distance[0, 1] > start + 0.3
