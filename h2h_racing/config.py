@@ -36,9 +36,19 @@ def _check(condition: bool, owner: str, name: str, value: Any, allowed: str) -> 
         raise ValueError(f"{owner}.{name} must be {allowed}, got {value!r}")
 
 
+def _is_int(value: Any) -> bool:
+    """Whether ``value`` is an int (a bool is not a count, though Python calls it an int)."""
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _is_number(value: Any) -> bool:
+    """Whether ``value`` is an int or a float (not a bool, a string or None)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
 def _finite_positive(owner: str, name: str, value: float) -> None:
     _check(
-        isinstance(value, (int, float)) and math.isfinite(value) and value > 0,
+        _is_number(value) and math.isfinite(value) and value > 0,
         owner,
         name,
         value,
@@ -96,9 +106,11 @@ class CarParams:
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
             if f.name == "body_elasticity":
-                _check(0.0 <= value <= 1.0, owner, f.name, value, "in [0, 1]")
+                _check(_is_number(value) and 0.0 <= value <= 1.0, owner, f.name, value,
+                       "a number in [0, 1]")
             elif f.name == "body_friction":
-                _check(0.0 <= value, owner, f.name, value, ">= 0")
+                _check(_is_number(value) and 0.0 <= value, owner, f.name, value,
+                       "a number >= 0")
             else:
                 _finite_positive(owner, f.name, value)
         _check(self.max_steer < math.pi / 2, owner, "max_steer", self.max_steer, "< pi/2 rad")
@@ -159,19 +171,25 @@ class RaceRules:
         _check(self.mode in RULE_MODES, owner, "mode", self.mode, f"one of {RULE_MODES}")
         _check(self.ranking in ("total_time", "best_lap"), owner, "ranking", self.ranking,
                "'total_time' or 'best_lap'")
-        _check(isinstance(self.laps, int) and self.laps >= 0, owner, "laps", self.laps,
+        _check(_is_int(self.laps) and self.laps >= 0, owner, "laps", self.laps,
                "an int >= 0")
-        _check(self.time_limit > 0, owner, "time_limit", self.time_limit, "> 0 (math.inf allowed)")
+        _check(_is_number(self.time_limit) and self.time_limit > 0, owner, "time_limit",
+               self.time_limit, "a number > 0 (math.inf allowed)")
         _check(self.laps > 0 or math.isfinite(self.time_limit), owner, "time_limit",
                self.time_limit, "finite when laps == 0 (otherwise the race never ends)")
         for name in ("off_track_penalty", "crash_penalty", "reversed_penalty",
                      "immobilised_penalty"):
             value = getattr(self, name)
-            _check(math.isfinite(value) and value >= 0, owner, name, value, "finite and >= 0")
-        _check(self.max_resets_per_lap is None or self.max_resets_per_lap >= 0, owner,
+            _check(_is_number(value) and math.isfinite(value) and value >= 0, owner, name,
+                   value, "a finite number >= 0")
+        _check(self.max_resets_per_lap is None
+               or (_is_int(self.max_resets_per_lap) and self.max_resets_per_lap >= 0), owner,
                "max_resets_per_lap", self.max_resets_per_lap, "None or an int >= 0")
+        _check(isinstance(self.crash_is_infraction, bool), owner, "crash_is_infraction",
+               self.crash_is_infraction, "a bool")
         for name in ("reversed_steps", "immobilised_steps"):
-            _check(getattr(self, name) >= 1, owner, name, getattr(self, name), "an int >= 1")
+            _check(_is_int(getattr(self, name)) and getattr(self, name) >= 1, owner, name,
+                   getattr(self, name), "an int >= 1")
         for name in ("immobilised_distance", "defence_gap", "defence_time"):
             _finite_positive(owner, name, getattr(self, name))
 
@@ -225,7 +243,7 @@ class RewardConfig:
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
-            _check(isinstance(value, (int, float)) and math.isfinite(value), "RewardConfig",
+            _check(_is_number(value) and math.isfinite(value), "RewardConfig",
                    f.name, value, "a finite number")
 
 
@@ -515,7 +533,7 @@ class EnvConfig:
 
     def __post_init__(self) -> None:
         owner = type(self).__name__
-        _check(isinstance(self.num_cars, int) and 1 <= self.num_cars <= 16, owner, "num_cars",
+        _check(_is_int(self.num_cars) and 1 <= self.num_cars <= 16, owner, "num_cars",
                self.num_cars, "an int in [1, 16]")
         _check(self.race_type in RACE_TYPES, owner, "race_type", self.race_type,
                f"one of {RACE_TYPES}")
@@ -523,7 +541,11 @@ class EnvConfig:
                self.rules, "None or a RaceRules")
         _check(self.action_type in ("continuous", "discrete"), owner, "action_type",
                self.action_type, "'continuous' or 'discrete'")
-        _check(0.0 <= self.min_speed < self.max_speed <= self.car.max_speed, owner,
+        _check(isinstance(self.car, CarParams), owner, "car", self.car, "a CarParams")
+        _check(isinstance(self.reward, RewardConfig), owner, "reward", self.reward,
+               "a RewardConfig")
+        _check(_is_number(self.min_speed) and _is_number(self.max_speed)
+               and 0.0 <= self.min_speed < self.max_speed <= self.car.max_speed, owner,
                "min_speed/max_speed", (self.min_speed, self.max_speed),
                f"0 <= min_speed < max_speed <= car.max_speed ({self.car.max_speed})")
         limit = math.degrees(self.car.max_steer)
@@ -531,55 +553,60 @@ class EnvConfig:
                "min_steer_deg/max_steer_deg", (self.min_steer_deg, self.max_steer_deg),
                "both None or both numbers")
         if self.min_steer_deg is not None:
-            _check(isinstance(self.min_steer_deg, (int, float))
-                   and isinstance(self.max_steer_deg, (int, float))
+            _check(_is_number(self.min_steer_deg) and _is_number(self.max_steer_deg)
                    and -limit - 1e-9 <= self.min_steer_deg < self.max_steer_deg <= limit + 1e-9,
                    owner, "min_steer_deg/max_steer_deg", (self.min_steer_deg, self.max_steer_deg),
                    f"numbers with -{limit:g} <= min_steer_deg < max_steer_deg <= {limit:g} "
                    f"(car.max_steer in degrees)")
-        _check(len(self.discrete_actions) >= 1, owner, "discrete_actions",
-               self.discrete_actions, "a non-empty tuple of (steering_deg, speed) pairs")
+        _check(isinstance(self.discrete_actions, (tuple, list)) and len(self.discrete_actions) >= 1,
+               owner, "discrete_actions", self.discrete_actions,
+               "a non-empty tuple of (steering_deg, speed) pairs")
         for i, pair in enumerate(self.discrete_actions):
-            _check(len(pair) == 2 and all(math.isfinite(v) for v in pair), owner,
+            _check(isinstance(pair, (tuple, list)) and len(pair) == 2
+                   and all(_is_number(v) and math.isfinite(v) for v in pair), owner,
                    f"discrete_actions[{i}]", pair, "a pair of finite numbers")
-        _check(self.num_obstacles is None or (isinstance(self.num_obstacles, int)
+        _check(self.num_obstacles is None or (_is_int(self.num_obstacles)
                                               and 0 <= self.num_obstacles <= 32),
                owner, "num_obstacles", self.num_obstacles, "None or an int in [0, 32]")
+        _check(self.obstacle_positions is None
+               or isinstance(self.obstacle_positions, (tuple, list)),
+               owner, "obstacle_positions", self.obstacle_positions,
+               "None or a tuple of (fraction of the lap, lane) pairs")
         if self.obstacle_positions is not None:
             for i, pos in enumerate(self.obstacle_positions):
-                _check(len(pos) == 2 and 0.0 <= pos[0] < 1.0 and pos[1] in (-1, 1), owner,
+                _check(isinstance(pos, (tuple, list)) and len(pos) == 2 and _is_number(pos[0])
+                       and 0.0 <= pos[0] < 1.0 and _is_number(pos[1]) and pos[1] in (-1, 1), owner,
                        f"obstacle_positions[{i}]", pos,
                        "(fraction of the lap in [0, 1), lane +1 or -1)")
         for name in ("obstacle_length", "obstacle_width", "grid_spacing", "step_dt"):
             _finite_positive(owner, name, getattr(self, name))
-        _check(self.num_bots is None or (isinstance(self.num_bots, int)
-                                         and not isinstance(self.num_bots, bool)
+        _check(self.num_bots is None or (_is_int(self.num_bots)
                                          and 0 <= self.num_bots <= MAX_BOTS),
                owner, "num_bots", self.num_bots,
                f"None (the race type's default) or an int in [0, {MAX_BOTS}]")
         for name in ("bot_speed", "bot_lane_change_min", "bot_lane_change_distance"):
             _finite_positive(owner, name, getattr(self, name))
-        _check(isinstance(self.bot_lane_change_max, (int, float))
+        _check(_is_number(self.bot_lane_change_max)
                and math.isfinite(self.bot_lane_change_max)
                and self.bot_lane_change_max >= self.bot_lane_change_min, owner,
                "bot_lane_change_min/bot_lane_change_max",
                (self.bot_lane_change_min, self.bot_lane_change_max),
                "finite numbers with 0 < bot_lane_change_min <= bot_lane_change_max [s]")
-        _check(isinstance(self.bot_penalty, (int, float)) and math.isfinite(self.bot_penalty)
+        _check(_is_number(self.bot_penalty) and math.isfinite(self.bot_penalty)
                and self.bot_penalty >= 0, owner, "bot_penalty", self.bot_penalty,
                "a finite number >= 0 [s]")
         for name in ("bot_lane_change", "randomize_bots", "round_robin_starts",
                      "alternate_direction"):
             _check(isinstance(getattr(self, name), bool), owner, name, getattr(self, name),
                    "a bool")
-        _check(isinstance(self.round_robin_advance, (int, float))
+        _check(_is_number(self.round_robin_advance)
                and math.isfinite(self.round_robin_advance)
                and 0.0 < self.round_robin_advance < 1.0, owner, "round_robin_advance",
                self.round_robin_advance, "a fraction of the lap in (0, 1) (DeepRacer: 0.05)")
         _check(self.grid in ("random", "fixed"), owner, "grid", self.grid, "'random' or 'fixed'")
-        _check(isinstance(self.physics_substeps, int) and 1 <= self.physics_substeps <= 32,
+        _check(_is_int(self.physics_substeps) and 1 <= self.physics_substeps <= 32,
                owner, "physics_substeps", self.physics_substeps, "an int in [1, 32]")
-        _check(isinstance(self.max_cycles, int) and self.max_cycles >= 1, owner, "max_cycles",
+        _check(_is_int(self.max_cycles) and self.max_cycles >= 1, owner, "max_cycles",
                self.max_cycles, "an int >= 1")
         if isinstance(self.sensors, str):
             object.__setattr__(self, "sensors", (self.sensors,))
@@ -592,9 +619,9 @@ class EnvConfig:
         _check(isinstance(self.camera, CameraConfig), owner, "camera", self.camera,
                "a CameraConfig")
         _check(isinstance(self.lidar, LidarConfig), owner, "lidar", self.lidar, "a LidarConfig")
-        _check(self.opponent_slots >= 0 and self.obstacle_slots >= 0, owner,
-               "opponent_slots/obstacle_slots", (self.opponent_slots, self.obstacle_slots),
-               "ints >= 0")
+        for name in ("opponent_slots", "obstacle_slots"):
+            value = getattr(self, name)
+            _check(_is_int(value) and value >= 0, owner, name, value, "an int >= 0")
 
     @property
     def race_rules(self) -> RaceRules:

@@ -50,6 +50,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from h2h_racing.league.store import LeagueStore, Player, file_sha256, player_for
+from h2h_racing.league.toml_types import check_fields
 from h2h_racing.league.tournament import PAIR_ORDERS, Job, make_job, run_job
 
 ROLES = ("main", "main_exploiter", "league_exploiter")
@@ -300,19 +301,22 @@ class LeagueConfig:
         unknown = sorted(set(data) - known)
         if unknown:
             raise ValueError(f"{source}: unknown keys {unknown}; allowed keys are {sorted(known)}")
-        values = dict(data)
+        # Types first, so that a wrong one is named with its key (not "'<' not supported");
+        # one string for a list of names is that one name.
+        values = check_fields(cls, data, source)
         if "learners" in values:
             learners = []
             for i, entry in enumerate(values["learners"]):
+                if isinstance(entry, LearnerSpec):
+                    learners.append(entry)
+                    continue
+                entry = check_fields(LearnerSpec, entry, source, f"learners[{i}].")
                 extra = sorted(set(entry) - {"name", "role"})
                 if extra:
                     raise ValueError(f"{source}: learners[{i}] has unknown keys {extra}; "
                                      f"allowed: name, role")
                 learners.append(LearnerSpec(**entry))
             values["learners"] = tuple(learners)
-        for key in ("tracks", "anchors", "placement_tracks"):
-            if key in values:
-                values[key] = tuple(values[key])
         try:
             return cls(**values)
         except TypeError as err:

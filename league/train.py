@@ -45,6 +45,7 @@ except ImportError as _error:
     raise missing_extra("train", "training", _error) from None
 
 from h2h_racing.config import EnvConfig, RaceRules, RewardConfig  # noqa: E402
+from h2h_racing.league.toml_types import check_fields  # noqa: E402
 from h2h_racing.league.vec_env import OBSERVATIONS, PoolOpponent, RacingVecEnv  # noqa: E402
 from h2h_racing.policies.scripted import TEACHERS  # noqa: E402
 from h2h_racing.track import Track  # noqa: E402
@@ -363,12 +364,11 @@ class TrainConfig:
                 where = "" if key is None else f"[{key}] "
                 raise ValueError(f"{source}: {where}unknown keys {unknown}; allowed keys are "
                                  f"{sorted(known)}")
+        # Types first, so that a wrong one is named with its key (not "'<' not supported").
+        values = check_fields(cls, values, source)
         for key, kind in nested.items():
-            if key in values:
-                values[key] = kind(**values[key])
-        for f in dataclasses.fields(cls):
-            if isinstance(values.get(f.name), list):
-                values[f.name] = tuple(values[f.name])
+            if key in values and isinstance(values[key], dict):
+                values[key] = kind(**check_fields(kind, values[key], source, f"[{key}] "))
         try:
             return cls(**values)
         except (TypeError, ValueError) as err:

@@ -1,0 +1,129 @@
+"""Type checks of config files (TOML) against a config dataclass's field annotations.
+
+A TOML file can hold a value of any type under any key; the configs' own checks then fail on
+comparisons (``'<' not supported between 'str' and 'int'``) that name neither the key nor
+what it should hold. ``check_fields`` runs first and refuses a value of the wrong type with a
+message naming the key, the type expected and the value received. One string where a list of
+strings is expected is taken as a list of that one name (``tracks = "oval"`` means
+``tracks = ["oval"]``, not the letters o, v, a, l); lists become tuples.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import types
+import typing
+from typing import Any, Literal
+
+_NAMES = {int: "an integer", float: "a number", str: "a string", bool: "true or false"}
+_PLURALS = {int: "integers", float: "numbers", str: "strings", bool: "true/false values"}
+
+
+def _describe(hint: Any) -> str:
+    """What a value of type ``hint`` looks like in a TOML file."""
+    origin, args = typing.get_origin(hint), typing.get_args(hint)
+    if hint in _NAMES:
+        return _NAMES[hint]
+    if origin is Literal:
+        kinds = sorted({_NAMES.get(type(a), type(a).__name__) for a in args})
+        return f"{' or '.join(kinds)} (one of {', '.join(repr(a) for a in args)})"
+    if origin in (typing.Union, types.UnionType):
+        parts = [_describe(a) for a in args if a is not type(None)]
+        text = " or ".join(parts)
+        return f"{text} (or left out)" if type(None) in args else text
+    if origin is tuple:
+        if len(args) == 2 and args[1] is Ellipsis:
+            if args[0] is str:
+                return "a list of strings (or one string)"
+            if args[0] in _PLURALS:
+                return f"a list of {_PLURALS[args[0]]}"
+            return f"a list, each {_describe(args[0])}"
+        return f"a list of {len(args)} values ({', '.join(_describe(a) for a in args)})"
+    if origin is dict:
+        if args[1] in _PLURALS:
+            return f"a table of {_PLURALS[args[1]]}"
+        return f"a table, each value {_describe(args[1])}"
+    if dataclasses.is_dataclass(hint):
+        return f"a table of {hint.__name__} fields"
+    return getattr(hint, "__name__", str(hint))
+
+
+def _convert(value: Any, hint: Any) -> tuple[bool, Any]:
+    """``(fits, value)``: whether ``value`` has type ``hint``, and the value to use (lists as
+    tuples, one string as a one-name tuple)."""
+    origin, args = typing.get_origin(hint), typing.get_args(hint)
+    if hint is Any:
+        return True, value
+    if hint is bool:
+        return isinstance(value, bool), value
+    if hint is int:
+        return isinstance(value, int) and not isinstance(value, bool), value
+    if hint is float:
+        return isinstance(value, (int, float)) and not isinstance(value, bool), value
+    if hint is str:
+        return isinstance(value, str), value
+    if hint is type(None):
+        return value is None, value
+    if origin is Literal:
+        # Only the type: which values are allowed is the config's own check (its message).
+        return any(type(value) is type(a) for a in args), value
+    if origin in (typing.Union, types.UnionType):
+        for arg in args:
+            fits, converted = _convert(value, arg)
+            if fits:
+                return True, converted
+        return False, value
+    if origin is tuple:
+        if len(args) == 2 and args[1] is Ellipsis:
+            if args[0] is str and isinstance(value, str):
+                return True, (value,)
+            items = [args[0]] * len(value) if isinstance(value, (list, tuple)) else []
+        else:
+            items = list(args)
+        if not isinstance(value, (list, tuple)) or len(value) != len(items):
+            return False, value
+        converted = []
+        for item, hint_item in zip(value, items):
+            fits, item = _convert(item, hint_item)
+            if not fits:
+                return False, value
+            converted.append(item)
+        return True, tuple(converted)
+    if origin is dict:
+        if not isinstance(value, dict):
+            return False, value
+        key_hint, value_hint = args
+        return all(_convert(k, key_hint)[0] and _convert(v, value_hint)[0]
+                   for k, v in value.items()), value
+    if dataclasses.is_dataclass(hint):
+        return isinstance(value, (dict, hint)), value
+    if isinstance(hint, type):
+        return isinstance(value, hint), value
+    return True, value
+
+
+def check_fields(cls: type, values: dict[str, Any], source: str,
+                 where: str = "") -> dict[str, Any]:
+    """Check every value of ``values`` whose key is a field of the dataclass ``cls`` against
+    the field's annotation; return the values with lists as tuples.
+
+    Args:
+        cls: The config dataclass.
+        values: Parsed values (e.g. a TOML table); unknown keys are left to the caller.
+        source: Where the values come from (the file), for the message.
+        where: Table prefix for the message, e.g. ``"[ppo] "``.
+
+    Raises:
+        ValueError: ``"<source>: <where><key> must be <expected>, got <value> (<type>)"``.
+    """
+    hints = typing.get_type_hints(cls)
+    out = dict(values)
+    for key, value in values.items():
+        if key not in hints:
+            continue
+        fits, converted = _convert(value, hints[key])
+        if not fits:
+            raise ValueError(f"{source}: {where}{key} must be {_describe(hints[key])}, got "
+                             f"{value!r} ({type(value).__name__})")
+        out[key] = converted
+    return out
