@@ -11,6 +11,19 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+DESCRIPTION = "Race, train and rate cars on DeepRacer-style tracks."
+EPILOG = """examples:
+  h2h-racing race --track speedway --drivers league_racer,racing_line --save race.rrd
+  h2h-racing evaluate --policy league_racer --against racing_line --track all --races 10
+  h2h-racing train --track speedway --minutes 10 --out runs/speedway
+  h2h-racing league train --config recommended --workers 3
+
+Run 'h2h-racing COMMAND --help' for a command's options."""
+DRIVERS_HELP = ("comma-separated drivers, one per car: scripted (racing_line, pure_pursuit, "
+                "blocker, random), shipped policies (league_racer, ppo_generalist, "
+                "camera_speedway, racing_line_student) or policy.pt files")
+SEED_HELP = "random seed (start points, noise)"
+
 
 class HelpFormatter(argparse.RawDescriptionHelpFormatter):
     """Appends ``(default: X)`` to an option's help when it has a default worth showing.

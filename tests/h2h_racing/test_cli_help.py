@@ -82,3 +82,12 @@ def test_train_options_state_the_defaults_train_uses() -> None:
         assert given == base, f"train {flag} {value} is not the default"
         checked.append(flag)
     assert {"--track", "--obs", "--rules", "--envs", "--seed", "--eval-every"} <= set(checked)
+
+
+def test_the_drivers_help_names_every_shipped_driver() -> None:
+    from h2h_racing.cli_help import DRIVERS_HELP
+    from h2h_racing.policies import DRIVERS
+    from h2h_racing.policies.trained import shipped_policies
+
+    for name in [*DRIVERS, *shipped_policies()]:
+        assert name in DRIVERS_HELP, f"--drivers' help does not name {name}"
