@@ -7,6 +7,11 @@ of ``{"steering_angle": deg, "speed": m/s[, "index": i]}`` (discrete) or
 one camera and at most one lidar; ``lidar_config`` ``{num_sectors, num_values_per_sector,
 clipping_dist}``. Values are clipped to DeepRacer's actuator limits (``agent_ctrl/constants.py``:
 ``MAX_ANGLE = 30`` deg, ``MIN_SPEED = 0.1``, ``MAX_SPEED = 4`` m/s), with a warning.
+
+DeepRacer reads ``lidar_config`` only for ``DISCRETIZED_SECTOR_LIDAR`` (``sensors/utils.py``);
+``LIDAR`` and ``SECTOR_LIDAR`` keep their fixed settings (64 ranges clipped to 1 m; 8 sectors
+that read 1 nearer than 0.5 m). This reader does the same, so an observation matches the one
+the model was trained on: a ``lidar_config`` is ignored with a warning that names its keys.
 """
 
 from __future__ import annotations
@@ -33,6 +38,11 @@ MAX_SPEED = 4.0
 
 CAMERAS = ("FRONT_FACING_CAMERA", "STEREO_CAMERAS", "LEFT_CAMERA", "observation")
 LIDARS = ("LIDAR", "SECTOR_LIDAR", "DISCRETIZED_SECTOR_LIDAR")
+_FIXED_LIDAR = {
+    "LIDAR": "LIDAR gives its 64 ranges clipped to 1.0 m",
+    "SECTOR_LIDAR": "SECTOR_LIDAR gives 8 sectors that read 1 nearer than 0.5 m",
+    None: "'sensor' names no lidar",
+}
 
 
 def _fail(path: Path, key: str, expected: str, got: Any) -> ValueError:
@@ -164,6 +174,9 @@ def _sensors(path: Path, sensor: Any, lidar_config: Any) -> dict[str, Any]:
         raise _fail(path, "'sensor'", f"names from {CAMERAS + LIDARS}", unknown)
     if len(cameras) != 1 or len(lidars) > 1:
         raise _fail(path, "'sensor'", "exactly one camera and at most one lidar", sensor)
+    lidar = lidars[0] if lidars else None
+    if lidar_config is not None and lidar in _FIXED_LIDAR:
+        _ignore_lidar_config(path, lidar_config, lidar)
     out: dict[str, Any] = {"sensors": ("camera", "lidar") if lidars else ("camera",)}
     if cameras[0] == "STEREO_CAMERAS":
         out["camera"] = CameraConfig(stereo=True)
@@ -177,9 +190,20 @@ def _sensors(path: Path, sensor: Any, lidar_config: Any) -> dict[str, Any]:
         raise _fail(path, "'sensor'", "a supported lidar ('LIDAR' or 'SECTOR_LIDAR'; "
                     "DISCRETIZED_SECTOR_LIDAR's one-hot encoding is not implemented yet)",
                     lidars[0])
-    if lidar_config is not None and not isinstance(lidar_config, dict):
-        raise _fail(path, "'lidar_config'", "an object", lidar_config)
     return out
+
+
+def _ignore_lidar_config(path: Path, config: Any, lidar: str | None) -> None:
+    """Warn that ``lidar_config`` is ignored, naming its keys (its values are not checked:
+    a field nobody reads must not stop a file from loading)."""
+    if not isinstance(config, dict):
+        raise _fail(path, "'lidar_config'", "an object {num_sectors, num_values_per_sector, "
+                    "clipping_dist}", config)
+    if config:
+        warnings.warn(f"{path}: lidar_config {config} is ignored (keys {sorted(config)}): "
+                      f"DeepRacer reads it only for DISCRETIZED_SECTOR_LIDAR, which h2h-racing "
+                      f"does not implement, and {_FIXED_LIDAR[lidar]}, as in DeepRacer",
+                      UserWarning, stacklevel=4)
 
 
 def discrete_table(config: Any) -> tuple[FloatArrayLike, FloatArrayLike]:
