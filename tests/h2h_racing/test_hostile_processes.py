@@ -18,7 +18,6 @@ from pathlib import Path
 
 import pytest
 
-psutil = pytest.importorskip("psutil")
 
 REPO = Path(__file__).resolve().parents[2]
 GONE_WITHIN = 5.0  # [s] the issue's bound for children outliving a killed parent
@@ -51,6 +50,7 @@ def _read_line(proc: subprocess.Popen, timeout: float = 120.0) -> str:
 
 
 def _alive(pids: list[int]) -> list[int]:
+    psutil = pytest.importorskip("psutil")  # installed with ray (the dev extra)
     alive = []
     for pid in pids:
         try:
@@ -96,6 +96,7 @@ LOCAL_POOL_PARENT = """
 
 
 def test_local_workers_and_resource_tracker_die_with_a_killed_parent(tmp_path):
+    psutil = pytest.importorskip("psutil")
     parent = _start(LOCAL_POOL_PARENT, tmp_path)
     try:
         workers = [int(pid) for pid in _read_line(parent).split()]
@@ -110,12 +111,12 @@ def test_local_workers_and_resource_tracker_die_with_a_killed_parent(tmp_path):
 
 
 WATCHED_CHILD_PARENT = """
-    import subprocess, sys, time
+    import os, subprocess, sys, time
 
     child = subprocess.Popen([sys.executable, "-c", (
-        "import os, time; from h2h_racing.lifeline import die_with_parent; "
+        "import time; from h2h_racing.lifeline import die_with_parent; "
         "die_with_parent(%d, death_signal=False); print('armed', flush=True); time.sleep(600)"
-    ) % __import__("os").getpid()], stdout=subprocess.PIPE, text=True)
+    ) % os.getpid()], stdout=subprocess.PIPE, text=True)
     child.stdout.readline()
     print(child.pid, flush=True)
     time.sleep(600)
@@ -159,8 +160,9 @@ def fake_ray(monkeypatch):
     monkeypatch.setattr(ray, "init", fake.init)
     # What the backend switches, put back after the test.
     monkeypatch.setattr(ray_constants, "ENABLE_RAY_CLUSTER", ray_constants.ENABLE_RAY_CLUSTER)
-    monkeypatch.delenv("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", raising=False)
-    monkeypatch.delenv("RAY_ADDRESS", raising=False)
+    for name in ("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "RAY_ADDRESS"):
+        monkeypatch.setenv(name, "")  # so that teardown puts back the variable's absence
+        monkeypatch.delenv(name)
     return fake
 
 
