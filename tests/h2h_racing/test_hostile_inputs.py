@@ -214,3 +214,101 @@ def test_projection_grid_builds_in_small_chunks() -> None:
     finally:
         tracemalloc.stop()
     assert peak < 40 << 20, f"Projector.build peak {peak >> 20} MiB"
+
+
+# --------------------------------------------------------------------------- bad values
+
+
+@pytest.mark.parametrize("field", ["num_cars", "num_obstacles", "physics_substeps", "max_cycles",
+                                   "opponent_slots", "obstacle_slots"])
+def test_a_bool_is_not_a_count(field: str) -> None:
+    # True passed every check (Python's bool is an int) and failed later deep inside numpy.
+    with pytest.raises(ValueError, match=rf"EnvConfig\.{field} must be .*int.*got True"):
+        EnvConfig(**{field: True})
+
+
+def test_parallel_env_refuses_num_cars_true() -> None:
+    import h2h_racing
+
+    with pytest.raises(ValueError, match=r"EnvConfig\.num_cars must be an int in \[1, 16\], "
+                                         r"got True"):
+        h2h_racing.parallel_env(track="oval", num_cars=True)
+
+
+@pytest.mark.parametrize(("field", "value"), [
+    ("laps", True), ("reversed_steps", True), ("immobilised_steps", True),
+    ("max_resets_per_lap", True), ("time_limit", "60"), ("crash_penalty", "5"),
+])
+def test_race_rules_name_a_value_of_the_wrong_type(field: str, value: object) -> None:
+    # Strings failed in a comparison ("'>' not supported") that named no field.
+    with pytest.raises(ValueError, match=rf"RaceRules\.{field} must be .*got {value!r}"):
+        RaceRules(**{field: value})
+
+
+def write(tmp_path, name: str, text: str):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_league_toml_takes_one_track_name_as_a_list(tmp_path) -> None:
+    # tuple("oval") made the league's tracks o, v, a, l ("Unknown track 'o'" later).
+    from h2h_racing.league.selfplay import LeagueConfig
+
+    config = LeagueConfig.from_toml(write(tmp_path, "l.toml", 'tracks = "oval"\n'
+                                                              'anchors = "racing_line"\n'))
+    assert config.tracks == ("oval",)
+    assert config.anchors == ("racing_line",)
+
+
+def test_league_toml_names_the_key_of_a_value_of_the_wrong_type(tmp_path) -> None:
+    from h2h_racing.league.selfplay import LeagueConfig
+
+    path = write(tmp_path, "l.toml", 'eval_recent = "6"\n')
+    with pytest.raises(ValueError) as err:
+        LeagueConfig.from_toml(path)
+    assert str(err.value) == f"{path}: eval_recent must be an integer, got '6' (str)"
+    path = write(tmp_path, "m.toml", 'tracks = ["oval", 3]\n')
+    with pytest.raises(ValueError, match=r"tracks must be a list of strings \(or one string\), "
+                                         r"got \['oval', 3\]"):
+        LeagueConfig.from_toml(path)
+
+
+def test_train_toml_names_the_key_of_a_value_of_the_wrong_type(tmp_path) -> None:
+    from h2h_racing.league.train import TrainConfig
+
+    path = write(tmp_path, "t.toml", 'num_envs = "64"\n')
+    with pytest.raises(ValueError) as err:
+        TrainConfig.from_toml(path)
+    assert str(err.value) == f"{path}: num_envs must be an integer, got '64' (str)"
+    path = write(tmp_path, "u.toml", "hidden_dims = 128\n")
+    with pytest.raises(ValueError, match=r"hidden_dims must be a list of integers, got 128"):
+        TrainConfig.from_toml(path)
+
+
+def test_train_command_names_the_key_of_a_value_of_the_wrong_type(tmp_path, capsys) -> None:
+    from h2h_racing.cli import main
+
+    path = write(tmp_path, "t.toml", "num_steps_per_env = [32]\n")
+    assert main(["train", "--out", str(tmp_path / "run"), "--config", str(path)]) == 2
+    assert (f"h2h-racing: error: {path}: num_steps_per_env must be an integer, got [32] "
+            f"(list)") in capsys.readouterr().err
+    assert not (tmp_path / "run").exists()
+
+
+def test_model_metadata_says_that_lidar_config_is_ignored(tmp_path) -> None:
+    import json
+
+    from h2h_racing.deepracer.metadata import load_model_metadata
+
+    path = write(tmp_path, "model_metadata.json", json.dumps({
+        "action_space": [{"steering_angle": 0.0, "speed": 1.0}],
+        "sensor": ["FRONT_FACING_CAMERA", "SECTOR_LIDAR"],
+        "lidar_config": {"num_sectors": 16, "num_values_per_sector": 4, "clipping_dist": 1.0}}))
+    with pytest.warns(UserWarning, match=r"lidar_config .* is ignored \(keys \['clipping_dist', "
+                                         r"'num_sectors', 'num_values_per_sector'\]\).*"
+                                         r"SECTOR_LIDAR gives 8 sectors"):
+        overrides = load_model_metadata(path)
+    # As in DeepRacer: SECTOR_LIDAR keeps its 8 sectors at 0.5 m whatever lidar_config says.
+    assert overrides["lidar"].mode == "sector_lidar"
+    assert (overrides["lidar"].sectors, overrides["lidar"].sector_clip) == (8, 0.5)
