@@ -263,7 +263,7 @@ def speed_profile(curvature: FloatArray, seg_len: FloatArray, v_max: float, a_la
 
 def compute_race_line(track: Track, car: CarParams, v_max: float, *, ds: float = 0.1,
                       qp_ds: float = 0.2, margin: float = 0.12, peak_emphasis: float = 0.0,
-                      grip_factor: float = 0.7,
+                      grip_factor: float = 0.6,
                       accel_factor: float = 0.9, brake_factor: float = 0.6) -> RaceLine:
     """Compute (or fetch from the per-track cache) the racing line of a track.
 

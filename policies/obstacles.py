@@ -1,0 +1,132 @@
+"""Steering round the boxes of ``object_avoidance`` races, for the scripted drivers.
+
+A scripted driver reads the true state (like DeepRacer's bot cars), here each box's arc
+position ``core.obstacle_s`` and lateral offset ``core.obstacle_d`` (boxes stand along their
+lane, ``obstacle_length`` along it and ``obstacle_width`` across). :func:`avoid_obstacles`
+bends the driver's lateral target round every box near the car:
+
+* each box is passed on the side with more room between it and the border;
+* while the car's body overlaps the box along the track, its centre must stay at least
+  ``obstacle_width / 2 + car.width / 2 + clearance`` from the box's centre line, on that
+  side, and ``EDGE`` inside the border (on a narrow track the outer wheels may cross the
+  border: a car is off track only with all four wheels off);
+* the lateral target moves over to that side along a smoothstep ramp of ``approach`` metres
+  before the box (and back over ``departure`` metres after it), so the path's extra
+  curvature stays near ``3 dy / approach^2`` (a lateral move dy of 0.4 m over 2 m: 0.3 1/m);
+* near a box the speed command is capped at ``speed_cap`` (the detour is not on the racing
+  line, and its speed profile does not know the detour), and, where the car still has to move
+  across by ``dy`` before the box's front ``D`` ahead (two boxes close together in opposite
+  lanes make a tight slalom), at ``D sqrt(a_lat / (2 dy))``, the speed at which a parabolic
+  move across stays within the lateral acceleration ``a_lat``.
+
+The ramp is evaluated at the pursuit target (ahead of the car) for the way in and at the car's
+front for the way out, so the body clears the box before the target moves back. Boxes are
+handled nearest last, so where two boxes' ramps overlap the nearer one decides.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
+if TYPE_CHECKING:
+    from h2h_racing.core import RaceCore
+
+FloatArray = npt.NDArray[np.float64]
+
+EDGE = 0.03
+"""Distance kept between the car's centre and the border when passing a box [m]."""
+
+
+def _smoothstep(x: FloatArray) -> FloatArray:
+    """``3x^2 - 2x^3`` on [0, 1], clamped outside."""
+    t = np.clip(x, 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+def _presence(x: FloatArray, front: FloatArray, back: FloatArray, approach: float,
+              departure: float) -> FloatArray:
+    """1 on ``[front, back]``, smoothstep ramps of ``approach`` before and ``departure`` after,
+    0 elsewhere (all arc positions relative to the car, same shape)."""
+    rise = _smoothstep((x - (front - approach)) / approach)
+    fall = 1.0 - _smoothstep((x - back) / departure)
+    return np.where(x < front, rise, np.where(x > back, fall, 1.0))
+
+
+def avoid_obstacles(core: RaceCore, car: int, s_target: FloatArray, offset: FloatArray,
+                    speed: FloatArray, *, clearance: float = 0.1, approach: float = 1.6,
+                    departure: float = 0.4, speed_cap: float = 2.2,
+                    lateral_accel: float = 0.4, min_speed: float = 0.6,
+                    ) -> tuple[FloatArray, FloatArray]:
+    """Bend the lateral target of car ``car`` round the boxes near it (see the module docstring).
+
+    Args:
+        core: The simulation core (true state).
+        car: The car index.
+        s_target: Arc position of the pursuit target in each env copy, shape (E,) [m].
+        offset: Lateral target offset the driver wants there, shape (E,) [m], left positive.
+        speed: Speed command the driver wants, shape (E,) [m/s].
+        clearance: Gap kept between the car's side and the box's side [m].
+        approach: Length of the ramp onto the passing side before a box [m].
+        departure: Length of the ramp back after a box [m].
+        speed_cap: Highest speed command within the ramps of a box [m/s].
+        lateral_accel: Lateral acceleration budget of a move across to a box's passing
+            side, as a fraction of ``mu g``.
+        min_speed: Lowest speed command the move-across limit gives [m/s].
+
+    Returns:
+        ``(offset, speed)``, each shape (E,).
+    """
+    if core.num_obstacles == 0:
+        return offset, speed
+    cfg = core.config
+    params = cfg.car
+    length = core.track.length
+    s_car = core.s[:, car]
+    half_body = 0.5 * params.length
+    # Arc position of each box relative to the car, wrapped to (-L/2, L/2].
+    gap = core.obstacle_s - s_car[:, None]
+    gap -= length * np.floor(gap / length + 0.5)
+    half_len = 0.5 * cfg.obstacle_length
+    front = gap - half_len - half_body - 0.05
+    back = gap + half_len + half_body + 0.05
+    # The target's and the car's front arc positions, relative to the car.
+    ahead = np.remainder(s_target - s_car, length)[:, None]
+    hold = np.full_like(ahead, half_body)
+    near = (back + departure > 0.0) & (front - approach < ahead)
+    if not near.any():
+        return offset, speed
+    presence = np.maximum(_presence(ahead, front, back, approach, departure),
+                          _presence(hold, front, back, approach, departure))
+    presence = np.where(near, presence, 0.0)
+    left, right = core.track.half_widths_at(core.obstacle_s)
+    box_d = core.obstacle_d
+    half_w = 0.5 * cfg.obstacle_width
+    room_left = left - (box_d + half_w)
+    room_right = (box_d - half_w) + right
+    side = np.where(room_left >= room_right, 1.0, -1.0)
+    need = half_w + 0.5 * params.width + clearance
+    # Beside a box on a narrow track the car may put its outer wheels over the border (it is
+    # off track only with all four off), keeping its centre EDGE inside.
+    bound = np.clip(box_d + side * need, -right + EDGE, left - EDGE)
+    out = np.asarray(offset, dtype=np.float64).copy()
+    # Nearest box last: it decides where ramps overlap.
+    for k in np.argsort(-np.abs(gap), axis=1).T:
+        rows = np.arange(core.num_envs)
+        f = presence[rows, k]
+        b = bound[rows, k]
+        wrong = np.where(side[rows, k] > 0, out < b, out > b)
+        out = np.where(wrong, out + f * (b - out), out)
+    capped = np.where(presence.max(axis=1) > 0.0, np.minimum(speed, speed_cap), speed)
+    # Slow down where the car must still move over by dy before a box's front, D ahead: a
+    # parabolic move of dy over D curves at 2 dy / D^2, so v <= D sqrt(a_lat / (2 dy)).
+    my_d = core.d[:, car][:, None]
+    still = np.maximum(side * (bound - my_d), 0.0)
+    room = np.maximum(front, 0.05)
+    a_lat = lateral_accel * params.friction * 9.81
+    feasible = room * np.sqrt(a_lat / np.maximum(2.0 * still, 1e-9))
+    feasible = np.where(near & (back > 0.0) & (still > 0.02), feasible, np.inf)
+    capped = np.minimum(capped, np.maximum(feasible.min(axis=1), min_speed))
+    return out, capped
