@@ -246,10 +246,10 @@ class ProgressBar:
             done = max(done, float(driven.min()))
         return min(max(done, 0.0), 1.0)
 
-    def update(self) -> None:
-        """Redraw the bar (at most ten times a second)."""
+    def update(self, force: bool = False) -> None:
+        """Redraw the bar (at most ten times a second, unless ``force``)."""
         now = time.monotonic()
-        if now - self._start < self.delay or now - self._last < 0.1:
+        if not force and (now - self._start < self.delay or now - self._last < 0.1):
             return
         self._last = now
         self._shown = True
@@ -265,8 +265,10 @@ class ProgressBar:
         self.stream.flush()
 
     def close(self) -> None:
-        """End the bar's line if it was shown."""
+        """Draw the race's final state and end the bar's line, if it was shown."""
         if self._shown:
+            # The last throttled redraw can be a good part of a fast race before its end.
+            self.update(force=True)
             self.stream.write("\n")
             self.stream.flush()
             self._shown = False

@@ -49,14 +49,29 @@ def _add_backend_args(parser: argparse.ArgumentParser, default: str) -> None:
 
 
 class _Progress:
-    """One status line on stderr: races done / all, elapsed time."""
+    """Races done / all and the time taken, on stderr: one line redrawn on a terminal; in a
+    log file a line per tenth of the races, without carriage returns."""
 
-    def __init__(self) -> None:
+    def __init__(self, stream: Any = None) -> None:
+        self.stream = sys.stderr if stream is None else stream
+        self.terminal = self.stream.isatty()
         self.start = time.perf_counter()
+        self.tenths = -1
 
     def __call__(self, done: int, total: int) -> None:
-        print(f"\r{done}/{total} races  {time.perf_counter() - self.start:6.1f} s",
-              end="", file=sys.stderr, flush=True)
+        text = f"{done}/{total} races  {time.perf_counter() - self.start:6.1f} s"
+        if self.terminal:
+            print(f"\r{text}", end="", file=self.stream, flush=True)
+            return
+        tenths = 10 * done // max(total, 1)
+        if tenths > self.tenths:
+            self.tenths = tenths
+            print(text, file=self.stream, flush=True)
+
+    def close(self) -> None:
+        """End the redrawn line (on a terminal)."""
+        if self.terminal:
+            print(file=self.stream, flush=True)
 
 
 def _exit_on_sigterm() -> None:
@@ -104,12 +119,13 @@ def _cmd_tournament(args: argparse.Namespace) -> int:
                               name=args.name, anchor=args.anchor)
     backend = _backend(args)
     start = time.perf_counter()
+    progress = _Progress()
     try:
         with LeagueStore(args.league) as store:
-            report = run_tournament(config, store, backend, progress=_Progress())
+            report = run_tournament(config, store, backend, progress=progress)
     finally:
         backend.close()
-    print(file=sys.stderr)
+        progress.close()
     print(f"tournament {config.name!r}: {report.ran} races run, {report.skipped} already in "
           f"{args.league}, {time.perf_counter() - start:.1f} s")
     print(report.table())
