@@ -8,7 +8,7 @@
 
 The learner is ``car_0`` of a ``RacingEnv`` (the PettingZoo env) with ``1 + len(opponents)``
 cars; the opponents are scripted drivers (``racing_line``, ``pure_pursuit``, ``blocker``,
-``random``), shipped trained policies (``ppo_speedway``, ...) or ``policy.pt`` paths, as
+``random``), shipped trained policies (``league_racer``, ...) or ``policy.pt`` paths, as
 ``h2h-racing race --drivers`` takes them, or driver objects (``reset(core)``,
 ``act(core, car)``). They read the simulation state, as in ``h2h-racing race``, and act on
 every step while they race. The grid is drawn from the seed, so the learner starts in any

@@ -116,8 +116,8 @@ class LeagueConfig:
     """Tracks each learner trains on per round: the round's iterations are split into this
     many near-equal chunks, each on the next track of ``tracks`` from the round's own (1: the
     whole round on the round's track); evaluation races stay on the round's track. Meant to
-    keep a learner from being fitted to the last track it saw (in run 7 of league/README.md
-    it did not stop the main agent's decline)."""
+    keep a learner from being fitted to the last track it saw (in run 7 of
+    experiments/league/README.md it did not stop the main agent's decline)."""
     num_envs: int = 128
     """Env copies per learner."""
     num_steps_per_env: int = 32
@@ -134,8 +134,8 @@ class LeagueConfig:
     """Policy standard deviation at the start (and after an exploiter reset)."""
     max_std: float | None = 0.5
     """Upper bound of the learners' policy standard deviation (``TrainConfig.max_std``); None
-    leaves it unbounded, as in runs 1-7 of league/README.md, whose main agents' std grew from
-    0.3 to 2-4."""
+    leaves it unbounded, as in runs 1-7 of experiments/league/README.md, whose main agents'
+    std grew from 0.3 to 2-4."""
     eval_races: int = 2
     """Seeds per (learner, opponent) evaluation pairing per round, each in both seat orders."""
     eval_recent: int = 6

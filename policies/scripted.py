@@ -398,7 +398,7 @@ def make_driver(name: str, *, seed: int | None = None, **kwargs: Any) -> Driver:
     Args:
         name: One of ``DRIVERS`` (``"pure_pursuit"``, ``"racing_line"``, ``"blocker"``,
             ``"random"``; ``"random"`` needs ``rng=np.random.default_rng(seed)``), a shipped
-            trained policy (``policies/trained/<name>/policy.pt``, e.g. ``"ppo_speedway"``), or
+            trained policy (``policies/trained/<name>/policy.pt``, e.g. ``"league_racer"``), or
             the path of a ``policy.pt`` (see ``h2h_racing.policies.trained``).
         seed: Seeds the ``random`` driver's generator when no ``rng`` is given (other
             drivers are deterministic and ignore it).
