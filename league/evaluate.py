@@ -84,6 +84,12 @@ def evaluate(driver: Any, track: str | Track, episodes: int = 20, seed: int = 0,
         off_tracks=int(core.off_tracks[:, 0].sum()), collisions=int(core.collisions[:, 0].sum()))
 
 
+START_CHOICES = ("both", "behind", "front")
+"""Grid slot of the evaluated driver (driver A) in ``head_to_head``: ``both`` alternates the
+two slots on the same start points, ``behind`` always starts it in the slot behind (the
+from-behind protocol: every win is a pass), ``front`` always in front (every win is a hold)."""
+
+
 @dataclass(frozen=True)
 class HeadToHead:
     """Outcome of ``races`` 2-car races between two drivers (A, B).
