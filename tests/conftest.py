@@ -92,6 +92,18 @@ def with_route_slips(rows: np.ndarray, back_row: int, duplicate_row: int) -> np.
     return out
 
 
+def reinvent_2018_71_rows(source: Path) -> np.ndarray:
+    """The 2019-era re:Invent 2018 route rebuilt for tests from today's 119-row file
+    ``source`` (shared/data, never copied into the project): resampled to 71 rows (70 evenly
+    spaced along the centre line + the closing row), with the old file's slips added."""
+    raw = np.load(source)
+    arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(raw[:, :2], axis=0).T))])
+    at = np.linspace(0.0, arc[-1], 71)
+    rows = np.stack([np.interp(at, arc, raw[:, k]) for k in range(6)], axis=1)
+    rows[-1] = rows[0]
+    return with_route_slips(rows, back_row=24, duplicate_row=51)
+
+
 @pytest.fixture
 def rng() -> np.random.Generator:
     """A seeded generator (tests never use unseeded randomness)."""

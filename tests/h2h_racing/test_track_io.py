@@ -159,6 +159,7 @@ class TestNpy:
 
 ellipse_route_rows = sys.modules["conftest"].ellipse_route_rows
 with_route_slips = sys.modules["conftest"].with_route_slips
+reinvent_2018_71_rows = sys.modules["conftest"].reinvent_2018_71_rows
 
 
 class TestRouteSlips:
@@ -237,17 +238,6 @@ class TestRouteSlips:
         t = load_track(path)
         assert t.waypoints.shape == (71, 2) and len(t.centre) == 68
         assert t.length == pytest.approx(17.7, abs=0.1)
-
-
-def reinvent_2018_71_rows(source: Path) -> np.ndarray:
-    """The 2019-era re:Invent 2018 route rebuilt for tests: today's 119-row file resampled to 71
-    rows (70 evenly spaced along the centre line + the closing row), with its slips added."""
-    raw = np.load(source)
-    arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(raw[:, :2], axis=0).T))])
-    at = np.linspace(0.0, arc[-1], 71)
-    rows = np.stack([np.interp(at, arc, raw[:, k]) for k in range(6)], axis=1)
-    rows[-1] = rows[0]
-    return with_route_slips(rows, back_row=24, duplicate_row=51)
 
 
 class TestCsv:
