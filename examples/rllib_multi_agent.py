@@ -9,7 +9,8 @@ RLModule per car), or with ``--shared`` one policy drives every car (parameter s
 Training rules end a car's episode at its first infraction or after one lap; RLlib stops
 sending actions to a car once its episode has ended, and the race goes on for the others.
 
-Ray runs locally, bound to 127.0.0.1 and without its dashboard. The default run is short (a
+Ray runs locally, listening on 127.0.0.1 only and without its dashboard
+(``h2h_racing.league.backends.local_ray_options``). The default run is short (a
 smoke test of the whole stack, not trained drivers). Needs ``ray[rllib]`` (in the ``dev``
 extra).
 """
@@ -73,10 +74,13 @@ def train(iterations: int = 3, **config: Any) -> list[dict[str, Any]]:
     """
     import ray
 
+    from h2h_racing.league.backends import local_ray_options
+
     started = not ray.is_initialized()
     if started:
-        ray.init(_node_ip_address="127.0.0.1", include_dashboard=False,
-                 num_cpus=2, log_to_driver=False)
+        # ray.init(_node_ip_address="127.0.0.1", include_dashboard=False), plus Ray's
+        # single-machine mode, without which Ray on Linux listens on the network address.
+        ray.init(log_to_driver=False, **local_ray_options(num_cpus=2))
     algo = build_config(**config).build_algo()
     summaries = []
     try:

@@ -29,8 +29,9 @@ def example():
 def local_ray():
     import ray
 
-    ray.init(_node_ip_address="127.0.0.1", include_dashboard=False, num_cpus=2,
-             log_to_driver=False)
+    from h2h_racing.league.backends import local_ray_options
+
+    ray.init(log_to_driver=False, **local_ray_options(num_cpus=2))
     yield ray
     ray.shutdown()
 
