@@ -299,7 +299,8 @@ class RacingEnv(ParallelEnv):
         self._lidar = (LidarSensor(config.lidar, config.car, obstacle_size)
                        if "lidar" in config.sensors else None)
         self._sensor_rng = np.random.default_rng()
-        if config.sensors == ("state",):
+        self._state_only = config.sensors == ("state",)
+        if self._state_only:
             obs_space: spaces.Space = state_space
         else:
             parts = {"state": state_space,
@@ -316,8 +317,10 @@ class RacingEnv(ParallelEnv):
         # One space object per agent, built once: PettingZoo's tests require identity.
         self._observation_spaces = {a: obs_space for a in self.possible_agents}
         self._action_spaces = {a: act_space for a in self.possible_agents}
-        self._steer_mid, self._steer_scale, self._speed_mid, self._speed_scale = (
-            config.action_affine)
+        # steer mid-point and half-range [rad], speed mid-point and half-range [m/s].
+        self._affine = np.array(config.action_affine, dtype=np.float64)
+        self._continuous = config.action_type == "continuous"
+        self._num_cars = config.num_cars
         self._chosen: list[int] = []
         self._deepracer: DeepRacerReward | None = None
         self._params: ParamsBuilder | None = None
@@ -327,8 +330,8 @@ class RacingEnv(ParallelEnv):
             self._deepracer = DeepRacerReward(reward_function, config.num_cars,
                                               self.possible_agents)
             self._params = self._params_builder(False)
-        self._weights = rewards.weights_of(config.reward)
-        self._info = InfoBuilder(config.num_cars, self.track.length, info_level)
+        self._info = InfoBuilder(config.num_cars, self.track.length,
+                                 rewards.weights_of(config.reward), info_level)
         if not isinstance(parked_agents, bool):
             raise ValueError(f"parked_agents must be a bool, got {parked_agents!r}")
         self.parked_agents = parked_agents
@@ -399,7 +402,7 @@ class RacingEnv(ParallelEnv):
         self._ended = {}
         self._reset_done = True
         obs = self._observations()
-        return obs, self._info.build(self.core, self._index, self.agents, None, None)
+        return obs, self._info.reset(self.core, self._index, self.agents)
 
     def step(self, actions: dict[str, Any]) -> tuple[dict[str, Any], dict[str, float],
                                                      dict[str, bool], dict[str, bool],
@@ -431,24 +434,27 @@ class RacingEnv(ParallelEnv):
         racing = core._racing
         events = core.step(steer, speed)
         self.last_events = events
-        terms, reward_array = rewards.reward_terms(self._weights, events, core.speed, racing)
-        reward = reward_array[0].tolist()
-        params = None
+        index = self._index
+        reward, infos = self._info.step(core, index, agents, events, racing)
         if self._deepracer is not None:
             reward, params = self._deepracer_rewards(active, racing[0], steer[0], events)
-        obs = self._observations()
-        term = events.terminated[0].tolist()
-        trunc = events.truncated[0].tolist()
-        index = self._index
-        rewards_out = {a: reward[index[a]] for a in agents}
-        terminations = {a: term[index[a]] for a in agents}
-        truncations = {a: trunc[index[a]] for a in agents}
-        infos = self._info.build(core, index, agents, events, terms)
-        if params is not None:
             if self._info.level == "full":
                 for a in agents:
                     infos[a]["deepracer_params"] = params[index[a]]
-        if any(term) or any(trunc):
+        obs = self._observations()
+        term = events.terminated[0].tolist()
+        trunc = events.truncated[0].tolist()
+        if len(agents) == len(index):
+            # Every car still in the race (the common case): the lists are in agent order.
+            rewards_out = dict(zip(agents, reward))
+            terminations = dict(zip(agents, term))
+            truncations = dict(zip(agents, trunc))
+        else:
+            rewards_out = {a: reward[index[a]] for a in agents}
+            terminations = {a: term[index[a]] for a in agents}
+            truncations = {a: trunc[index[a]] for a in agents}
+            obs = {a: obs[a] for a in agents}
+        if True in term or True in trunc:
             self._active = [a for a in active if not (terminations[a] or truncations[a])]
             self._live = set(self._active)
             if not self.parked_agents:
@@ -458,7 +464,6 @@ class RacingEnv(ParallelEnv):
         if self.parked_agents and len(self._active) < len(agents):
             rewards_out, terminations, truncations = self._parked_results(
                 agents, active, rewards_out, terminations, truncations)
-        obs = {a: obs[a] for a in agents}
         return obs, rewards_out, terminations, truncations, infos
 
     def _park(self, active: list[str], terminations: dict[str, bool],
@@ -548,9 +553,9 @@ class RacingEnv(ParallelEnv):
                                  f"{self.possible_agents})")
             # Actions for cars whose race is over are not read.
             actions = {a: actions[a] for a in agents}
-        n = self.config.num_cars
+        n = self._num_cars
         every = len(agents) == n
-        if self.config.action_type == "continuous":
+        if self._continuous:
             try:
                 values = np.array([actions[a] for a in agents], dtype=np.float64)
             except (TypeError, ValueError) as exc:
@@ -560,13 +565,16 @@ class RacingEnv(ParallelEnv):
                 bad = {a: np.shape(actions[a]) for a in agents if np.shape(actions[a]) != (2,)}
                 raise ValueError(f"each action must have shape (2,) = [steer, speed]; "
                                  f"got shapes {bad}")
-            steer_values = np.empty(len(agents))
-            speed_values = np.empty(len(agents))
-            if not _scale_actions(values, self._steer_mid, self._steer_scale, self._speed_mid,
-                                  self._speed_scale, steer_values, speed_values):
+            # One fresh (2, 1, N) block per step: rows steer and speed, each (1, N) as the
+            # core takes them (it keeps them as its last commands, so never reused).
+            commands = np.empty((2, 1, len(agents)))
+            if not _scale_actions(values, self._affine, commands):
                 bad = {a: actions[a] for a, row in zip(agents, values)
                        if not np.isfinite(row).all()}
                 raise ValueError(f"actions must be finite; got NaN or inf for {bad}")
+            if every:
+                return commands[0], commands[1]
+            steer_values, speed_values = commands[0, 0], commands[1, 0]
         else:
             count = len(self.config.discrete_actions)
             chosen = []
@@ -594,10 +602,9 @@ class RacingEnv(ParallelEnv):
         return steer, speed
 
     def _observations(self) -> dict[str, Any]:
+        if self._state_only:
+            return dict(zip(self.possible_agents, state_observation(self.core)[0]))
         sensors = self.config.sensors
-        if sensors == ("state",):
-            obs = state_observation(self.core)[0]
-            return {a: obs[i] for i, a in enumerate(self.possible_agents)}
         arrays = {}
         for key in sensors:
             if key == "state":
@@ -640,18 +647,20 @@ class RacingEnv(ParallelEnv):
 
 
 @njit(cache=True)
-def _scale_actions(values, steer_mid, steer_half, speed_mid, speed_half, steer,
-                   speed):  # pragma: no cover
-    # Clip [steer, speed] to [-1, 1] and map to radians and m/s; False if any is NaN or inf.
+def _scale_actions(values, affine, commands):  # pragma: no cover
+    # Clip [steer, speed] to [-1, 1] and map to radians and m/s into commands[0] and
+    # commands[1]; False if any is NaN or inf.
+    steer_mid, steer_half, speed_mid, speed_half = affine[0], affine[1], affine[2], affine[3]
     for i in range(values.shape[0]):
         a = values[i, 0]
         b = values[i, 1]
         if not (math.isfinite(a) and math.isfinite(b)):
             return False
-        steer[i] = min(max(a, -1.0), 1.0) * steer_half
+        steer = min(max(a, -1.0), 1.0) * steer_half
         if steer_mid != 0.0:
-            steer[i] += steer_mid
-        speed[i] = speed_mid + min(max(b, -1.0), 1.0) * speed_half
+            steer += steer_mid
+        commands[0, 0, i] = steer
+        commands[1, 0, i] = speed_mid + min(max(b, -1.0), 1.0) * speed_half
     return True
 
 

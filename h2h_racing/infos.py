@@ -27,80 +27,112 @@ INFO_LEVELS: tuple[str, ...] = ("flat", "full")
 
 FLOAT_KEYS: tuple[str, ...] = ("progress", "distance", "last_lap_time", "best_lap_time",
                                "gap_to_leader", "time")
+REWARD_KEYS: tuple[str, ...] = tuple(f"reward_{term}" for term in rewards.TERMS)
 INT_KEYS: tuple[str, ...] = ("lap", "rank", "overtakes", "overtaken", "defences", "resets",
                              "penalties")
 BOOL_KEYS: tuple[str, ...] = ("frozen", "finished", "off_track", "crashed", "collided",
                               "penalised", "parked")
-REWARD_KEYS: tuple[str, ...] = tuple(f"reward_{term}" for term in rewards.TERMS)
-INFO_KEYS: tuple[str, ...] = FLOAT_KEYS + INT_KEYS + BOOL_KEYS + REWARD_KEYS
+INFO_KEYS: tuple[str, ...] = FLOAT_KEYS + REWARD_KEYS + INT_KEYS + BOOL_KEYS
 """Every key of a car's default info, in order."""
 
 
 class InfoBuilder:
-    """Builds the per-car info dicts of env copy 0 of a ``RaceCore``.
+    """Computes the rewards and builds the per-car info dicts of env copy 0 of a ``RaceCore``.
+
+    The built-in reward terms and the info fields are gathered by one compiled call into
+    three small tables (floats with the terms, ints, flags), and each car's dict is built from
+    their rows: the per-step cost of the PettingZoo layer is mostly Python, so fewer calls
+    and no per-key work is what makes it cheap.
 
     Args:
         num_cars: Cars of the race.
         lap_length: Length of the lap [m] (progress is a percentage of it).
+        weights: Reward term weights in ``rewards.TERMS`` order (``rewards.weights_of``).
         level: ``"flat"`` (the fixed keys of ``INFO_KEYS``) or ``"full"`` (those plus
             ``lap_times`` and ``reward_terms``).
     """
 
-    def __init__(self, num_cars: int, lap_length: float, level: str = "flat") -> None:
+    def __init__(self, num_cars: int, lap_length: float, weights: npt.NDArray[np.float64],
+                 level: str = "flat") -> None:
         if level not in INFO_LEVELS:
             raise ValueError(f"info_level must be one of {INFO_LEVELS}, got {level!r}")
         self.level = level
         self.percent_per_metre = 100.0 / lap_length
-        self._floats = np.empty((num_cars, len(FLOAT_KEYS)))
-        self._ints = np.empty((num_cars, len(INT_KEYS)), dtype=np.int64)
-        self._flags = np.empty((num_cars, 6), dtype=bool)
-        self._no_flags = np.zeros((4, 1, num_cars), dtype=bool)
-        self._no_terms = [[0.0] * len(rewards.TERMS)] * num_cars
+        self.weights = weights
+        n = num_cars
+        self._floats = np.empty((n, len(FLOAT_KEYS) + len(REWARD_KEYS)))
+        self._ints = np.empty((n, len(INT_KEYS)), dtype=np.int64)
+        self._flags = np.empty((n, len(BOOL_KEYS)), dtype=bool)
+        self._terms = np.empty((len(rewards.TERMS), 1, n))
+        self._reward = np.empty((1, n))
+        # Stand-ins for a step's events at reset: nothing happened and nobody raced, so every
+        # reward term is 0.
+        self._no_flags = np.zeros((1, n), dtype=bool)
+        self._no_progress = np.zeros((1, n))
+        self._no_counts = np.zeros((1, n), dtype=np.int64)
 
-    def build(self, core: Any, index: dict[str, int], agents: list[str], events: Any,
-              terms: npt.NDArray[np.float64] | None) -> dict[str, dict[str, Any]]:
-        """Return ``{agent: info}`` for ``agents`` after a step (events, terms) or a reset."""
-        floats, ints, flags = self._floats, self._ints, self._flags
-        if events is None:
-            step_flags = self._no_flags
-        else:
-            step_flags = (events.off_track, events.crashed, events.collided, events.penalised)
-        _info_kernel(core.distance, core.start_distance, self.percent_per_metre,
-                     core.last_lap_time, core.best_lap_time, core.time, core.laps, core.rank,
-                     core.overtakes, core.overtaken, core.defences, core.resets,
-                     core.penalties, core.frozen_until, core.finished, step_flags[0],
-                     step_flags[1], step_flags[2], step_flags[3], floats, ints, flags)
-        float_rows, int_rows, flag_rows = floats.tolist(), ints.tolist(), flags.tolist()
-        done = core.done[0].tolist()
-        term_rows = terms[:, 0, :].T.tolist() if terms is not None else self._no_terms
+    def reset(self, core: Any, index: dict[str, int],
+              agents: list[str]) -> dict[str, dict[str, Any]]:
+        """Return ``{agent: info}`` after a reset (every reward term 0)."""
+        no, zero, counts = self._no_flags, self._no_progress, self._no_counts
+        self._fill(core, no, zero, no, no, no, counts, counts, no, no)
+        return self._dicts(core, index, agents)
+
+    def step(self, core: Any, index: dict[str, int], agents: list[str], events: Any,
+             racing: npt.NDArray[np.bool_]) -> tuple[list[float], dict[str, dict[str, Any]]]:
+        """Return the built-in reward of every car (a list over all cars) and the infos of
+        ``agents`` after a step with ``events``; ``racing``: who raced during the step."""
+        ev = events
+        self._fill(core, racing, ev.progress, ev.off_track, ev.crashed, ev.collided,
+                   ev.overtakes, ev.overtaken, ev.lap_completed, ev.penalised)
+        return self._reward[0].tolist(), self._dicts(core, index, agents)
+
+    def _fill(self, core: Any, racing: Any, progress: Any, off_track: Any, crashed: Any,
+              collided: Any, overtakes: Any, overtaken: Any, lap_completed: Any,
+              penalised: Any) -> None:
+        _info_kernel(self.weights, racing, progress, off_track, crashed, collided, overtakes,
+                     overtaken, lap_completed, penalised, core.speed, core.distance,
+                     core.start_distance, self.percent_per_metre, core.last_lap_time,
+                     core.best_lap_time, core.time, core.laps, core.rank, core.overtakes,
+                     core.overtaken, core.defences, core.resets, core.penalties,
+                     core.frozen_until, core.finished, core.done, self._terms, self._reward,
+                     self._floats, self._ints, self._flags)
+
+    def _dicts(self, core: Any, index: dict[str, int],
+               agents: list[str]) -> dict[str, dict[str, Any]]:
+        float_rows = self._floats.tolist()
+        int_rows = self._ints.tolist()
+        flag_rows = self._flags.tolist()
         keys = INFO_KEYS
         infos = {}
         for a in agents:
             i = index[a]
-            flag_rows[i].append(done[i])
             # One zip over the concatenated rows: far cheaper than a key at a time.
-            infos[a] = dict(zip(keys, float_rows[i] + int_rows[i] + flag_rows[i]
-                                + term_rows[i]))
+            infos[a] = dict(zip(keys, float_rows[i] + int_rows[i] + flag_rows[i]))
         if self.level == "full":
             lap_times = core.lap_times[0]
-            names = rewards.TERMS
+            first = len(FLOAT_KEYS)
             for a in agents:
                 i = index[a]
                 infos[a]["lap_times"] = list(lap_times[i])
-                infos[a]["reward_terms"] = dict(zip(names, term_rows[i]))
+                infos[a]["reward_terms"] = dict(zip(rewards.TERMS, float_rows[i][first:]))
         return infos
 
 
 @njit(cache=True)
-def _info_kernel(distance, start_distance, percent_per_metre, last_lap, best_lap, time, laps,
-                 rank, overtakes, overtaken, defences, resets, penalties, frozen_until, finished,
-                 off_track, crashed, collided, penalised, floats, ints,
-                 flags):  # pragma: no cover
-    # Gathers the info fields of env copy 0 into three small tables, so that the per-car
-    # dicts are built from three tolist() calls instead of one per field.
+def _info_kernel(weights, racing, progress, off_track, crashed, collided, step_overtakes,
+                 step_overtaken, lap_completed, penalised, speed, distance, start_distance,
+                 percent_per_metre, last_lap, best_lap, time, laps, rank, overtakes, overtaken,
+                 defences, resets, penalties, frozen_until, finished, done, terms, reward,
+                 floats, ints, flags):  # pragma: no cover
+    # The reward terms (the same kernel as rewards.reward_terms) and the info fields of env
+    # copy 0, in one compiled call.
+    rewards._reward_kernel(weights, progress, speed, racing, off_track, crashed, collided,
+                           step_overtakes, step_overtaken, lap_completed, terms, reward)
     leader = distance[0, 0]
     for i in range(distance.shape[1]):
         leader = max(leader, distance[0, i])
+    first_term = 6
     for i in range(distance.shape[1]):
         floats[i, 0] = (distance[0, i] - start_distance[0, i]) * percent_per_metre
         floats[i, 1] = distance[0, i]
@@ -110,6 +142,8 @@ def _info_kernel(distance, start_distance, percent_per_metre, last_lap, best_lap
         floats[i, 3] = best if math.isfinite(best) else NO_LAP_TIME
         floats[i, 4] = leader - distance[0, i]
         floats[i, 5] = time[0]
+        for k in range(terms.shape[0]):
+            floats[i, first_term + k] = terms[k, 0, i]
         ints[i, 0] = laps[0, i]
         ints[i, 1] = rank[0, i]
         ints[i, 2] = overtakes[0, i]
@@ -123,3 +157,4 @@ def _info_kernel(distance, start_distance, percent_per_metre, last_lap, best_lap
         flags[i, 3] = crashed[0, i]
         flags[i, 4] = collided[0, i]
         flags[i, 5] = penalised[0, i]
+        flags[i, 6] = done[0, i]

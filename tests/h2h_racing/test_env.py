@@ -781,3 +781,25 @@ class TestTrainerConventions:
         env = make_env(rules="training", parked_agents=True)
         parallel_api_test(env, num_cycles=300)
         api_test(parallel_to_aec(make_env(rules="training", parked_agents=True)), num_cycles=300)
+
+    def test_rewards_and_terms_match_the_reward_module(self, make_env: Any) -> None:
+        # The env computes rewards and info terms in one compiled call; rewards.reward_terms
+        # (what the batched VecEnv uses) is the reference.
+        from h2h_racing import rewards
+
+        env = make_env(num_cars=3, reward=RewardConfig(speed=0.1, time=-0.01, contact=-1.0))
+        env.reset(seed=3)
+        weights = rewards.weights_of(env.config.reward)
+        drivers = MixedDrivers(env, seed=5, period=40)
+        drivers.reset()
+        for step in range(200):
+            if not env.agents:
+                break
+            racing = env.core.racing.copy()
+            _, rew, _, _, infos = env.step(drivers())
+            terms, reward = rewards.reward_terms(weights, env.last_events, env.core.speed, racing)
+            for agent in rew:
+                i = env.possible_agents.index(agent)
+                assert rew[agent] == reward[0, i], f"[{step}] {agent}"
+                got = [infos[agent][f"reward_{t}"] for t in rewards.TERMS]
+                assert got == terms[:, 0, i].tolist(), f"[{step}] {agent}"
