@@ -36,7 +36,7 @@ from h2h_racing import bots, race, spawn
 from h2h_racing.config import EnvConfig
 from h2h_racing.dynamics import SingleTrackModel
 from h2h_racing.physics import PhysicsWorld
-from h2h_racing.replacement import REPLACE_GAP, footprint_radius, place_kernel
+from h2h_racing.replacement import REPLACE_GAP, REPLACE_STEP, REPLACE_TRIES, place_kernel
 from h2h_racing.track import Track
 from h2h_racing.track_lookup import TrackLookup
 
@@ -238,6 +238,10 @@ class RaceCore:
         """Simulated time until which a penalised car is frozen, (E, N), seconds."""
         self.pending_replace = zeros((e, n), dtype=bool)
         """The car is frozen and will be put back on track when its penalty ends."""
+        self.waiting = zeros((e, n), dtype=bool)
+        """The car served its penalty but found no re-placement spot clear of every body: it
+        waits, frozen and parked off the track (so it blocks nobody), until one clears;
+        ``final_position`` and ``final_yaw`` hold its last pose on the track, (E, N)."""
         self.replace_distance = zeros((e, n))
         """Race distance at which a penalised car is put back, (E, N), metres."""
         self.done = zeros((e, n), dtype=bool)
@@ -469,6 +473,7 @@ class RaceCore:
         for name in ("last_lap_time", "best_lap_time", "finish_time"):
             getattr(self, name)[mask] = np.inf
         self.pending_replace[mask] = False
+        self.waiting[mask] = False
         self._parked[mask] = False
         self.done[mask] = False
         self.finished[mask] = False
@@ -787,27 +792,28 @@ class RaceCore:
         """Put frozen cars back on the nearest lane at their re-placement distance, on the
         first candidate spot clear of every other body (``h2h_racing.replacement``).
 
-        A car with no clear spot stays frozen where it is for one more step (the clock runs)
-        and is tried again then. Returns the cars placed, (E, N).
+        A car with no clear spot stays frozen for one more step (the clock runs), parked off
+        the track (``waiting``), and is tried again then. Returns the cars placed, (E, N).
         """
         track, cfg = self.track, self.config
         env_idx, car_idx = np.nonzero(mask)
         target = self.replace_distance[env_idx, car_idx]
         lane = np.where(self.d[env_idx, car_idx] >= 0.0, 1.0, -1.0)
-        cand_dist, cand_lane = spawn.replacement_candidates(track, target, lane, 0.5, 4)
+        cand_dist, cand_lane = spawn.replacement_candidates(track, target, lane, REPLACE_STEP,
+                                                            REPLACE_TRIES)
         cand_s = np.mod(cand_dist, track.length)
         cand_d = spawn.lane_offset(track, cand_s, cand_lane)
         cand_pos = track.point_at(cand_s, cand_d)
         choice = np.empty(len(env_idx), dtype=np.int64)
         place_kernel(env_idx, car_idx, cand_pos, track.heading_at(cand_s), self.position,
-                     self.yaw, self.obstacle_position, self.bot_position,
-                     footprint_radius(cfg.car.length, cfg.car.width),
-                     footprint_radius(cfg.obstacle_length, cfg.obstacle_width), REPLACE_GAP,
-                     choice)
+                     self.yaw, self.obstacle_position, self.obstacle_yaw, self.bot_position,
+                     self.bot_yaw, np.array([cfg.car.length, cfg.car.width]),
+                     np.array([cfg.obstacle_length, cfg.obstacle_width]), REPLACE_GAP, choice)
         ok = choice >= 0
         if not ok.all():
             wait_env, wait_car = env_idx[~ok], car_idx[~ok]
             self.frozen_until[wait_env, wait_car] = self.time[wait_env] + self.dt
+            self._wait_off_track(wait_env, wait_car)
         env_idx, car_idx, choice = env_idx[ok], car_idx[ok], choice[ok]
         rows = np.flatnonzero(ok)
         self.s[env_idx, car_idx] = cand_s[rows, choice]
@@ -818,17 +824,35 @@ class RaceCore:
         self.steer[env_idx, car_idx] = 0.0
         self.speed[env_idx, car_idx] = 0.0
         self.pending_replace[env_idx, car_idx] = False
+        self.waiting[env_idx, car_idx] = False
         self.resets[env_idx, car_idx] += 1
         self.lap_resets[env_idx, car_idx] += 1
         placed = np.zeros_like(mask)
         placed[env_idx, car_idx] = True
         return placed
 
+    def _wait_off_track(self, env_idx: IntArray, car_idx: IntArray) -> None:
+        """Park cars that found no clear spot while they wait: left where they stopped, cars
+        waiting next to each other could block each other's spots for good."""
+        first = ~self.waiting[env_idx, car_idx]
+        on_env, on_car = env_idx[first], car_idx[first]
+        self.final_position[on_env, on_car] = self.position[on_env, on_car]
+        self.final_yaw[on_env, on_car] = self.yaw[on_env, on_car]
+        self.position[env_idx, car_idx] = self._park[car_idx]
+        self.velocity[env_idx, car_idx] = 0.0
+        self.yaw_rate[env_idx, car_idx] = 0.0
+        self.speed[env_idx, car_idx] = 0.0
+        self.waiting[env_idx, car_idx] = True
+
     def _park_cars(self, mask: BoolArray) -> None:
         """Move cars whose episode ended off the track, where nobody can hit them."""
         env_idx, car_idx = np.nonzero(mask)
-        self.final_position[env_idx, car_idx] = self.position[env_idx, car_idx]
-        self.final_yaw[env_idx, car_idx] = self.yaw[env_idx, car_idx]
+        # A waiting car is parked already; its last pose on the track is kept.
+        on_track = ~self.waiting[env_idx, car_idx]
+        on_env, on_car = env_idx[on_track], car_idx[on_track]
+        self.final_position[on_env, on_car] = self.position[on_env, on_car]
+        self.final_yaw[on_env, on_car] = self.yaw[on_env, on_car]
+        self.waiting[env_idx, car_idx] = False
         self.position[env_idx, car_idx] = self._park[car_idx]
         self.velocity[env_idx, car_idx] = 0.0
         self.yaw_rate[env_idx, car_idx] = 0.0

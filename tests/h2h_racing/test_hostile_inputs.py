@@ -80,10 +80,10 @@ def test_replacements_never_overlap_a_body_long(num_cars: int) -> None:
     assert overlapped == 0, f"{overlapped} of {total} re-placements overlapped another body"
 
 
-def frozen_core(num_cars: int) -> RaceCore:
+def frozen_core(num_cars: int, num_obstacles: int = 0) -> RaceCore:
     """A race on the oval with every car frozen in place (no car will be re-placed)."""
     cfg = EnvConfig(track="oval", num_cars=num_cars, race_type="head_to_head", grid="fixed",
-                    rules=RaceRules.preset("head_to_head", "race"))
+                    num_obstacles=num_obstacles, rules=RaceRules.preset("head_to_head", "race"))
     core = RaceCore(cfg, load_track("oval"), num_envs=1)
     core.reset(seed=0)
     core.frozen_until[:] = 1e9
@@ -119,35 +119,40 @@ def test_cars_replaced_in_the_same_step_avoid_each_other() -> None:
 
 
 def test_car_with_no_clear_spot_stays_frozen_until_one_clears() -> None:
-    # Cars 1..8 stand (frozen) on all 8 candidate spots of car 0; before the fix car 0 took
-    # the last candidate and landed on car 8.
-    core = frozen_core(9)
+    # A box stands on every candidate spot of car 0; before the fix car 0 took the last
+    # candidate and landed on a box.
+    from h2h_racing.replacement import REPLACE_STEP, REPLACE_TRIES
+
+    core = frozen_core(2, num_obstacles=2 * REPLACE_TRIES)
     track = core.track
-    cand_dist, cand_lane = spawn.replacement_candidates(track, np.array([8.0]),
-                                                        np.array([1.0]), 0.5, 4)
+    cand_dist, cand_lane = spawn.replacement_candidates(track, np.array([8.0]), np.array([1.0]),
+                                                        REPLACE_STEP, REPLACE_TRIES)
     cand_s = np.mod(cand_dist[0], track.length)
     spots = track.point_at(cand_s, spawn.lane_offset(track, cand_s, cand_lane[0]))
-    core.position[0, 1:9] = spots
-    core.yaw[0, 1:9] = track.heading_at(cand_s)
+    core.obstacle_position[0] = spots
+    core.obstacle_yaw[0] = track.heading_at(cand_s)
     core._sync_physics()
     queue_replacement(core, 0, 8.0, 1.0)
     where = core.position[0, 0].copy()
-    for k in range(5):
+    for _ in range(5):
         time = core.time[0]
         ev = step(core)
         assert not ev.replaced.any()
         assert core.time[0] > time  # the clock runs
-        assert core.frozen[0, 0] and not core.racing[0, 0]
-        np.testing.assert_allclose(core.position[0, 0], where, atol=1e-9)
+        assert core.frozen[0, 0] and not core.racing[0, 0] and core.waiting[0, 0]
+        # It waits parked off the track, where it blocks nobody; its last pose is kept.
+        np.testing.assert_allclose(core.position[0, 0], core._park[0], atol=1e-9)
+        np.testing.assert_allclose(core.final_position[0, 0], where, atol=1e-9)
         assert core.resets[0, 0] == 0
-    # Car 1 leaves the first spot: car 0 is put there on the next step.
-    core.position[0, 1] = core._park[1]
+    # The boxes on the first spot and on the next one behind it (0.02 m from it) go: car 0 is
+    # put on the first spot on the next step.
+    core.obstacle_position[0, [0, 2]] = core._park[1] + 5.0
     core._sync_physics()
     ev = step(core)
     assert ev.replaced[0, 0] and core.resets[0, 0] == 1
     np.testing.assert_allclose(core.position[0, 0], spots[0], atol=1e-9)
     assert replacement_overlap(core, ev.replaced).max() == 0.0
-    assert core.racing[0, 0]
+    assert core.racing[0, 0] and not core.waiting[0, 0]
 
 
 # --------------------------------------------------------------------------- memory
