@@ -132,7 +132,9 @@ class RaceRules:
 
     ``mode="training"`` ends a car's episode at its first infraction (DeepRacer training);
     ``mode="race"`` freezes the car for a time penalty while the clock runs and then
-    re-places it on the nearest lane at its last valid progress (DeepRacer evaluation).
+    re-places it on the nearest lane at its last valid progress (DeepRacer evaluation), on the
+    first spot there or up to 3.5 m back whose box clears every other body by 7 cm; with none
+    clear it stays frozen, parked off the track, until one is (``h2h_racing.replacement``).
     """
 
     mode: RuleMode = "race"
