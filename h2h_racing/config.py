@@ -560,8 +560,9 @@ class EnvConfig:
                    owner, "min_steer_deg/max_steer_deg", (self.min_steer_deg, self.max_steer_deg),
                    f"numbers with -{limit:g} <= min_steer_deg < max_steer_deg <= {limit:g} "
                    f"(car.max_steer in degrees)")
-        _check(isinstance(self.discrete_actions, (tuple, list)) and len(self.discrete_actions) >= 1,
-               owner, "discrete_actions", self.discrete_actions,
+        actions = self.discrete_actions
+        _check(isinstance(actions, (tuple, list)) and len(actions) >= 1,
+               owner, "discrete_actions", actions,
                "a non-empty tuple of (steering_deg, speed) pairs")
         for i, pair in enumerate(self.discrete_actions):
             _check(isinstance(pair, (tuple, list)) and len(pair) == 2
@@ -577,7 +578,8 @@ class EnvConfig:
         if self.obstacle_positions is not None:
             for i, pos in enumerate(self.obstacle_positions):
                 _check(isinstance(pos, (tuple, list)) and len(pos) == 2 and _is_number(pos[0])
-                       and 0.0 <= pos[0] < 1.0 and _is_number(pos[1]) and pos[1] in (-1, 1), owner,
+                       and 0.0 <= pos[0] < 1.0 and _is_number(pos[1]) and pos[1] in (-1, 1),
+                       owner,
                        f"obstacle_positions[{i}]", pos,
                        "(fraction of the lap in [0, 1), lane +1 or -1)")
         for name in ("obstacle_length", "obstacle_width", "grid_spacing", "step_dt"):
