@@ -164,6 +164,8 @@ class RaceCore:
         self._projector = track.projector()
         self.lookup = TrackLookup.from_track(track)
         """Uniform tables of the track's fields for the compiled kernels."""
+        # The rules kernel's packed constants, built on the next step (they need the wheels).
+        self._rule_args: tuple[FloatArray, FloatArray, FloatArray] | None = None
         self.inner_sign = 1 if track.is_ccw else -1
 
     def _set_direction(self, reverse: bool) -> None:
@@ -323,9 +325,8 @@ class RaceCore:
         capacity = e * n * (1 + len(self._wheels))
         self._points = zeros((capacity, 2))
         self._selected = zeros(capacity, dtype=bool)
-        self._s_points = zeros(capacity)
-        self._d_points = zeros(capacity)
-        self._moved = zeros(e * n)
+        # Rows: each car's displacement this step, then the s and d of the projected points.
+        self._scratch = zeros((3, capacity))
         self._wheel_first = zeros(e * n, dtype=np.int64)
         self._no_cars = zeros((e, n), dtype=bool)
         self._no_cars.flags.writeable = False
@@ -607,24 +608,19 @@ class RaceCore:
         world.step(dt, cfg.physics_substeps)
 
         # Phase 2: rules on the new snapshot, per car in one compiled pass.
-        proj, lut = self._projector, self.lookup
+        proj = self._projector
+        scalars, grid, widths = self._rule_args or self._pack_rule_args()
         step_distance = np.empty((e, n))
-        off_track = np.empty((e, n), dtype=bool)
-        reversed_ = np.empty((e, n), dtype=bool)
-        immobilised = np.empty((e, n), dtype=bool)
+        # One fresh block for the three flags (a compiled call costs per array argument).
+        off_track, reversed_, immobilised = flags = np.empty((3, e, n), dtype=bool)
         laps = np.empty((e, n), dtype=np.int64)
         event, out_of_time = race.advance_cars(
             world.state, self.env_offset, self._wheels, racing, self.done, self.time, self.steps,
-            rules.time_limit, self.max_cycles, dt, self.position, self.yaw,
-            self.velocity, self.yaw_rate, self.speed, self.s, self.d, self.distance,
-            self.lap_origin, self.laps, self.reverse_count, self.immobile_count,
-            rules.reversed_steps, rules.immobilised_steps, rules.immobilised_distance,
-            self._points, self._selected, self._moved, self._wheel_first, self._s_points,
-            self._d_points, proj.origin, proj.inv_cell, proj.hi,
-            proj.ny, proj.start, proj.cert, proj.tab, proj.window, proj.tab_full,
-            lut.width_left, lut.width_right, lut.inv_ds, lut.length, self._min_half_width,
-            self._wheel_reach, step_distance, off_track, reversed_, immobilised,
-            laps)
+            rules.time_limit, self.max_cycles, self.position, self.yaw, self.velocity,
+            self.yaw_rate, self.speed, self.s, self.d, self.distance, self.lap_origin, self.laps,
+            self.reverse_count, self.immobile_count, scalars, self._points, self._selected,
+            self._wheel_first, self._scratch, grid, proj.start, proj.cert, proj.tab,
+            proj.tab_full, widths, step_distance, flags, laps)
         contact_a, contact_b = world.pop_contacts()
 
         # Laps.
@@ -730,6 +726,16 @@ class RaceCore:
             overtakes=overtakes_now, overtaken=overtaken_now, defences=defences_now,
             collisions=collision_events, passes=passes, bot_contacts=bot_events,
             bots_paused=bots_paused)
+
+    def _pack_rule_args(self) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Pack the rules kernel's constants of the current track (see race.advance_cars)."""
+        proj, lut = self._projector, self.lookup
+        self._rule_args = (
+            race.pack_rule_scalars(self.dt, self.rules, proj, lut, self._min_half_width,
+                                   self._wheel_reach),
+            np.concatenate([proj.origin, proj.hi]).astype(np.float64),
+            np.stack([lut.width_left, lut.width_right]))
+        return self._rule_args
 
     def _infractions(self, infraction: BoolArray, off_track: BoolArray, crash: BoolArray,
                      reversed_: BoolArray, immobilised: BoolArray,
