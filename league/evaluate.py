@@ -37,17 +37,17 @@ class Evaluation:
     collisions: int
     """Contacts (with obstacles, when there are any)."""
 
-    def row(self) -> str:
-        """One line of the evaluation table."""
+    def row(self, width: int = 28) -> str:
+        """One line of the evaluation table (``width``: of the driver column)."""
         mean = f"{self.mean_lap_time:.2f}" if np.isfinite(self.mean_lap_time) else "-"
         best = f"{self.best_lap_time:.2f}" if np.isfinite(self.best_lap_time) else "-"
-        return (f"{self.driver:<28} {100 * self.lap_completion:>6.1f} % {mean:>8} {best:>8} "
+        return (f"{self.driver:<{width}} {100 * self.lap_completion:>6.1f} % {mean:>8} {best:>8} "
                 f"{self.off_tracks:>5} {self.collisions:>5}")
 
     @staticmethod
-    def header() -> str:
-        """Header line of the evaluation table."""
-        return (f"{'driver':<28} {'laps':>8} {'mean s':>8} {'best s':>8} {'off':>5} "
+    def header(width: int = 28) -> str:
+        """Header line of the evaluation table (``width``: of the driver column)."""
+        return (f"{'driver':<{width}} {'laps':>8} {'mean s':>8} {'best s':>8} {'off':>5} "
                 f"{'coll':>5}")
 
 
