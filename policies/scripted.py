@@ -193,12 +193,8 @@ class RacingLine:
     it with more room and caps its speed at the other car's speed plus ``closing_speed``.
 
     Args:
-        grip_factor: Fraction of ``mu g`` the speed profile uses in corners. 0.6: at 0.7
-            the car spun out in S-bends on some tracks (the single-track model's rear axle
-            saturates in the quick change of yaw rate between opposite corners), which cost
-            whole laps (grand_loop driven backwards: 25 % of one-lap attempts completed;
-            ``random:7``: 43 %); at 0.6 every attempt on every route and catalogue track
-            completes, for laps about 3 % slower.
+        grip_factor: Fraction of ``mu g`` the speed profile uses in corners (at 0.7 the
+            rear axle saturated in quick S-bends and the car spun out: docs/deepracer.md).
         margin: Distance kept by the line from each border [m].
         speed_preview: Horizon of the speed command [s].
         lookahead_base: Look-ahead distance at standstill [m].
