@@ -148,6 +148,20 @@ def completion(track: Track, episodes: int = 20) -> float:
     return evaluate(RacingLine(), track, episodes=episodes, seed=0).lap_completion
 
 
+CATALUNYA = ROUTES.parent / "centerline_csv" / "Catalunya.csv"
+
+
+@pytest.mark.skipif(not CATALUNYA.is_file(), reason=f"no {CATALUNYA}")
+def test_real_circuit_at_465_m() -> None:
+    # Catalunya at 1/10 scale: a 465 m lap of 2,325 QP points (dense: 2,325^2 matrices).
+    track = load_track(CATALUNYA, scale=0.1)
+    line = compute_race_line(track, CarParams(), 4.0)
+    left, right = track.half_widths_at(line.s)
+    assert len(line.s) == round(track.length / 0.1)
+    assert np.all(line.d <= left - 0.12 + 1e-6) and np.all(line.d >= -right + 0.12 - 1e-6)
+    assert 0.0 < line.lap_time < track.length / 1.0
+
+
 class TestLapCompletion:
     """racing_line completes at least 95 % of its one-lap attempts on every route."""
 
