@@ -4,16 +4,19 @@
                     [--race-type head_to_bot [--bots 3] [--bot-speed 0.75]]
                     [--save race.rrd] [--spawn] [--serve [--serve-seconds N]]
     h2h-racing camera [--track speedway] [--car 1] [--steps 20] [--out camera.png]
-    h2h-racing train --out runs/NAME [--config TRAIN.toml] [--track T] [--obs state|camera|camera_only]
+    h2h-racing train --out runs/NAME [--config TRAIN.toml|NAME] [--track T]
+                     [--obs state|camera|camera_only]
                      [--opponents none|D] [--rules training|race] [--reward TERM=W,...]
                      [--init P] [--max-std S] [--teacher P] [--eval-every 50]
     h2h-racing evaluate --policy runs/NAME/policy.pt [--track T] [--episodes 20]
                         [--against DRIVERS [--races 20] [--laps 3]]
+    h2h-racing export POLICY [--format onnx,torchscript] [--out DIR]
     h2h-racing tracks list
     h2h-racing tracks show NAME [--out NAME.png]
     h2h-racing tracks import FILE [--name NAME] [--scale S | --scale L,W] [--reverse] [--out F]
     h2h-racing tournament --players A,B,C [--tracks T1,T2] [--races 2] [--backend local|ray]
-    h2h-racing league train --config league/NAME.toml | table | plot  (see league/cli.py)
+    h2h-racing league train --config recommended|smoke|FILE.toml
+    h2h-racing league table | plot --league FILE
 """
 
 from __future__ import annotations
@@ -22,6 +25,8 @@ import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+
+from h2h_racing.cli_help import DESCRIPTION, DRIVERS_HELP, EPILOG, SEED_HELP, ArgumentParser
 
 
 def _scale(text: str) -> float | tuple[float, float]:
@@ -76,7 +81,7 @@ def _cmd_tracks_import(args: argparse.Namespace) -> int:
 
 
 def _cmd_race(args: argparse.Namespace) -> int:
-    from h2h_racing.match import run_race
+    from h2h_racing.match import FALLBACK_CODEC, run_race
     from h2h_racing.track_io import list_tracks
 
     drivers = [d.strip() for d in args.drivers.split(",") if d.strip()]
@@ -118,6 +123,13 @@ def _cmd_race(args: argparse.Namespace) -> int:
         if result.simtrace:
             print(f"simtrace -> {', '.join(result.simtrace)} (load one with deepracer-utils: "
                   f"DeepRacerLog(FOLDER).load_evaluation_trace())", flush=True)
+        if result.video:
+            note = ("" if result.video_codec != FALLBACK_CODEC else
+                    ": OpenCV here has no H.264 encoder, and browsers do not play this one; "
+                    "name the file .webm for VP8, or convert it with ffmpeg -i "
+                    f"{result.video} -c:v libx264 race_h264.mp4")
+            print(f"video -> {Path(result.video).resolve()} ({result.video_codec}{note})",
+                  flush=True)
         if args.save:
             print(f"recording -> {args.save} (open it with: rerun {args.save})", flush=True)
         if result.viewer is not None:
@@ -164,8 +176,28 @@ def _cmd_train(args: argparse.Namespace) -> int:
         print(f"DeepRacer simtrace + metrics -> {out / 'simtrace'} (deepracer-utils: "
               f"DeepRacerLog('{out / 'simtrace' / 'car_0'}').load_training_trace())")
     if args.onnx:
-        path = runner.export_policy_to_onnx(str(out), filename="policy.onnx")
-        print(f"ONNX export -> {path or out / 'policy.onnx'}")
+        from h2h_racing.league.export import export_policy
+
+        # The exported actor is policy.pt's (the best iteration's with evaluation), checked.
+        print(export_policy(out / "policy.pt", out, formats="onnx").summary())
+    return 0
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    from h2h_racing.league.export import export_policy, parse_formats
+    from h2h_racing.policies.trained import shipped_policies
+
+    formats = parse_formats(args.format)
+    if args.out is not None:
+        out = Path(args.out)
+    elif args.policy in shipped_policies():
+        out = Path("exports") / args.policy
+    else:
+        out = Path(args.policy).parent
+    result = export_policy(args.policy, out, formats=formats, samples=args.samples,
+                           seed=args.seed)
+    print(result.summary())
+    print(f"inputs and outputs described in {out / 'policy.export.json'}")
     return 0
 
 
@@ -233,10 +265,11 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
         return _evaluate_head_to_head(args)
     print(f"{args.track}: {args.episodes} one-lap attempts from start points spread round the "
           "lap (training rules: an infraction ends the attempt)")
-    print(Evaluation.header())
-    for driver in [args.policy, *args.baseline.split(",")]:
-        if driver:
-            print(evaluate(driver, args.track, episodes=args.episodes, seed=args.seed).row())
+    drivers = [d for d in [args.policy, *args.baseline.split(",")] if d]
+    width = max(28, *map(len, drivers))
+    print(Evaluation.header(width))
+    for driver in drivers:
+        print(evaluate(driver, args.track, episodes=args.episodes, seed=args.seed).row(width))
     return 0
 
 
@@ -282,25 +315,29 @@ def _evaluate_head_to_head(args: argparse.Namespace) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     """Return the argument parser of the ``h2h-racing`` command."""
-    parser = argparse.ArgumentParser(prog="h2h-racing", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = ArgumentParser(prog="h2h-racing", description=DESCRIPTION, epilog=EPILOG)
     sub = parser.add_subparsers(dest="command", required=True)
 
-    race = sub.add_parser("race", help="race scripted drivers and print the results table")
+    race = sub.add_parser("race", help="race drivers (scripted or trained) and print the results "
+                                          "table")
     race.add_argument("--track", default="speedway",
                       help="catalogue name, track file, or 'all' for every catalogue track")
-    race.add_argument("--drivers", default="racing_line,pure_pursuit",
-                      help="comma-separated drivers, one per car (see policies/README.md)")
+    race.add_argument("--drivers", default="racing_line,pure_pursuit", help=DRIVERS_HELP)
     race.add_argument("--race-type", default="head_to_head",
-                      choices=["head_to_head", "time_trial", "object_avoidance", "head_to_bot"])
+                      choices=["head_to_head", "time_trial", "object_avoidance", "head_to_bot"],
+                      help="race preset: laps, penalties, obstacles or bot cars (DeepRacer's "
+                           "race types)")
     race.add_argument("--bots", type=int, default=None, metavar="N",
                       help="scripted bot cars (default: 3 in head_to_bot, else 0); they are not "
                            "in the results table")
     race.add_argument("--bot-speed", type=float, default=None, metavar="M/S",
                       help="speed of the bot cars (default 0.75 m/s)")
     race.add_argument("--laps", type=int, default=None, help="lap target (default: preset)")
-    race.add_argument("--seed", type=int, default=0)
-    race.add_argument("--video", default=None, help="write a top-down MP4 of the race here")
+    race.add_argument("--seed", type=int, default=0, help=SEED_HELP)
+    race.add_argument("--video", default=None, metavar="RACE.mp4|RACE.webm",
+                      help="write a top-down video of the race here: .mp4 is H.264 where "
+                           "OpenCV has the encoder (pip's has not: MPEG-4 Part 2 then, which "
+                           "browsers do not play), .webm is VP8, which browsers play")
     race.add_argument("--save", default=None, metavar="RACE.rrd",
                       help="write a rerun recording of the race (needs h2h-racing[viz])")
     race.add_argument("--spawn", action="store_true",
@@ -329,19 +366,21 @@ def build_parser() -> argparse.ArgumentParser:
                             "override them")
     train.add_argument("--track", default=None,
                        help="catalogue name, track file, random:<seed>, or 'procedural' (a new "
-                            "random track every track_every iterations, 10 by default)")
+                            "random track every track_every iterations, 10 by default) "
+                            "(default: speedway)")
     train.add_argument("--obs", default=None, choices=["state", "camera", "camera_only"],
                        help="actor input: the state vector; camera + state vector; or camera + "
-                            "own speed and steering (camera_only, DeepRacer's setting)")
+                            "own speed and steering (camera_only, DeepRacer's setting) "
+                            "(default: state)")
     train.add_argument("--rules", default=None, choices=["training", "race"],
                        help="training: an infraction ends the episode (DeepRacer's training); "
-                            "race: a time penalty and the car goes on")
+                            "race: a time penalty and the car goes on (default: training)")
     train.add_argument("--reward", default=None, metavar="TERM=W,...",
                        help="built-in reward weights, e.g. progress=1,crash=-10,overtake=3,"
-                            "time=-0.05 (unnamed terms keep RewardConfig's defaults)")
+                            "time=-0.05 (default: RewardConfig's weights for unnamed terms)")
     train.add_argument("--init", default=None, metavar="POLICY",
                        help="start from this policy's actor (shipped name or policy.pt): "
-                            "fine-tuning")
+                            "fine-tuning (default: none, random weights)")
     train.add_argument("--max-std", type=float, default=None, metavar="S",
                        help="upper bound of the policy's standard deviation (actions in "
                             "[-1, 1]); unbounded by default")
@@ -349,35 +388,46 @@ def build_parser() -> argparse.ArgumentParser:
                        help="imitate instead of PPO (rsl-rl Distillation, the student drives): "
                             "a scripted driver (racing_line, pure_pursuit, blocker) for any "
                             "--obs, or a state policy (shipped name or policy.pt) for a camera "
-                            "student")
+                            "student (default: none, PPO)")
     train.add_argument("--opponents", default=None,
                        help="'none' (alone), a scripted driver name or a policy.pt, or several "
-                            "separated by commas (they share the env copies)")
-    train.add_argument("--iterations", type=int, default=1000)
+                            "separated by commas (they share the env copies) (default: none)")
+    train.add_argument("--iterations", type=int, default=1000,
+                       help="PPO (or imitation) iterations, each of --envs copies x 32 steps")
     train.add_argument("--minutes", type=float, default=None,
                        help="stop after this much training time (checked every 10 iterations)")
-    train.add_argument("--envs", type=int, default=None, help="env copies (default 256)")
-    train.add_argument("--seed", type=int, default=None)
+    train.add_argument("--envs", type=int, default=None,
+                       help="env copies stepped together (default: 256)")
+    train.add_argument("--seed", type=int, default=None, help=SEED_HELP + " (default: 0)")
     train.add_argument("--reward-function", default=None, metavar="REWARD.py",
-                       help="train on a DeepRacer reward_function(params) file")
+                       help="train on a DeepRacer reward_function(params) file (default: the "
+                            "built-in reward)")
     train.add_argument("--model-metadata", default=None, metavar="model_metadata.json",
-                       help="use a DeepRacer action space (discrete list or continuous ranges)")
+                       help="use a DeepRacer action space (discrete list or continuous ranges) "
+                            "(default: continuous steering and speed)")
     train.add_argument("--simtrace", type=int, default=None, metavar="N",
                        help="write DeepRacer simtrace + metrics of N env copies (<= 10) to "
-                            "OUT/simtrace")
+                            "OUT/simtrace (default: 0, none)")
     train.add_argument("--eval-every", type=int, default=None, metavar="N",
                        help="every N iterations, evaluate the policy (tensorboard Eval/...) and "
-                            "record a race to OUT/eval/iter_<n>.rrd; 0 turns it off")
+                            "record a race to OUT/eval/iter_<n>.rrd; 0 turns it off "
+                            "(default: 50)")
     train.add_argument("--onnx", action=argparse.BooleanOptionalAction, default=True,
-                       help="also export the final policy to ONNX")
+                       help="also export policy.pt's actor to OUT/policy.onnx, checked "
+                            "(h2h-racing export)")
     train.add_argument("--out", required=True, help="output folder, e.g. runs/speedway")
     train.set_defaults(func=_cmd_train)
 
-    evaluate = sub.add_parser("evaluate", help="lap completion and lap times of a policy")
-    evaluate.add_argument("--policy", required=True, help="policy.pt or a driver name")
-    evaluate.add_argument("--track", default="speedway")
-    evaluate.add_argument("--episodes", type=int, default=20)
-    evaluate.add_argument("--seed", type=int, default=0)
+    evaluate = sub.add_parser("evaluate", help="a policy's lap completion and lap times alone, or "
+                                                  "its head-to-head record (--against)")
+    evaluate.add_argument("--policy", required=True,
+                          help="policy.pt, a shipped policy or a scripted driver name")
+    evaluate.add_argument("--track", default="speedway",
+                          help="catalogue name or track file; with --against also a comma list "
+                               "or 'all'")
+    evaluate.add_argument("--episodes", type=int, default=20,
+                          help="one-lap attempts, from start points spread round the lap")
+    evaluate.add_argument("--seed", type=int, default=0, help=SEED_HELP)
     evaluate.add_argument("--baseline", default="racing_line",
                           help="comma-separated drivers evaluated on the same start points")
     evaluate.add_argument("--against", default=None, metavar="DRIVERS",
@@ -396,13 +446,26 @@ def build_parser() -> argparse.ArgumentParser:
     evaluate.add_argument("--laps", type=int, default=3, help="laps per race with --against")
     evaluate.set_defaults(func=_cmd_evaluate)
 
+    export = sub.add_parser("export", help="export a trained policy to ONNX and TorchScript, "
+                                           "checked against the original")
+    export.add_argument("policy", help="a shipped policy name or a policy.pt")
+    export.add_argument("--format", default="onnx,torchscript",
+                        help="comma-separated formats: onnx, torchscript")
+    export.add_argument("--out", default=None, metavar="DIR",
+                        help="output folder (default: the policy.pt's folder, or "
+                             "exports/NAME for a shipped policy)")
+    export.add_argument("--samples", type=int, default=64,
+                        help="sample observations the exports are checked on")
+    export.add_argument("--seed", type=int, default=0, help="seed of the sample races")
+    export.set_defaults(func=_cmd_export)
+
     camera = sub.add_parser("camera", help="save what a car's camera sees as a PNG")
     camera.add_argument("--track", default="speedway", help="catalogue name or track file")
     camera.add_argument("--drivers", default="pure_pursuit,racing_line",
                         help="comma-separated drivers, one per car (car 0 first on the grid)")
     camera.add_argument("--car", type=int, default=1, help="whose camera (car index)")
     camera.add_argument("--steps", type=int, default=20, help="steps to drive before the shot")
-    camera.add_argument("--seed", type=int, default=0)
+    camera.add_argument("--seed", type=int, default=0, help=SEED_HELP)
     camera.add_argument("--scale", type=int, default=4, help="enlarge the 160x120 image")
     camera.add_argument("--out", default="camera.png", help="PNG path")
     camera.set_defaults(func=_cmd_camera)
