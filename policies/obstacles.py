@@ -31,6 +31,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
+from h2h_racing.policies.racing_line import GRAVITY
+
 if TYPE_CHECKING:
     from h2h_racing.core import RaceCore
 
@@ -90,6 +92,7 @@ def avoid_obstacles(core: RaceCore, car: int, s_target: FloatArray, offset: Floa
     gap = core.obstacle_s - s_car[:, None]
     gap -= length * np.floor(gap / length + 0.5)
     half_len = 0.5 * cfg.obstacle_length
+    # Where the body overlaps the box along the track, 5 cm to spare (relative to the car).
     front = gap - half_len - half_body - 0.05
     back = gap + half_len + half_body + 0.05
     # The target's and the car's front arc positions, relative to the car.
@@ -112,9 +115,9 @@ def avoid_obstacles(core: RaceCore, car: int, s_target: FloatArray, offset: Floa
     # off track only with all four off), keeping its centre EDGE inside.
     bound = np.clip(box_d + side * need, -right + EDGE, left - EDGE)
     out = np.asarray(offset, dtype=np.float64).copy()
-    # Nearest box last: it decides where ramps overlap.
+    rows = np.arange(core.num_envs)
+    # Nearest box last: it decides where ramps overlap (a loop over the K boxes, not the cars).
     for k in np.argsort(-np.abs(gap), axis=1).T:
-        rows = np.arange(core.num_envs)
         f = presence[rows, k]
         b = bound[rows, k]
         wrong = np.where(side[rows, k] > 0, out < b, out > b)
@@ -125,7 +128,7 @@ def avoid_obstacles(core: RaceCore, car: int, s_target: FloatArray, offset: Floa
     my_d = core.d[:, car][:, None]
     still = np.maximum(side * (bound - my_d), 0.0)
     room = np.maximum(front, 0.05)
-    a_lat = lateral_accel * params.friction * 9.81
+    a_lat = lateral_accel * params.friction * GRAVITY
     feasible = room * np.sqrt(a_lat / np.maximum(2.0 * still, 1e-9))
     feasible = np.where(near & (back > 0.0) & (still > 0.02), feasible, np.inf)
     capped = np.minimum(capped, np.maximum(feasible.min(axis=1), min_speed))

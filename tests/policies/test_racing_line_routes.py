@@ -14,8 +14,9 @@ import pytest
 from h2h_racing.config import CarParams
 from h2h_racing.league.evaluate import evaluate
 from h2h_racing.match import run_race
-from h2h_racing.policies import RacingLine, compute_race_line
+from h2h_racing.policies import RacingLine, compute_race_line, race_core
 from h2h_racing.policies.banded import CyclicPentadiagonal
+from h2h_racing.policies.obstacles import avoid_obstacles
 from h2h_racing.policies.racing_line import curvature_qp_bands, min_curvature_offsets
 from h2h_racing.track import Track
 from h2h_racing.track_io import list_tracks, load_track
@@ -211,6 +212,23 @@ class TestNarrowSlippedRoute:
 
 class TestObjectAvoidance:
     """Scripted drivers steer round the boxes of object_avoidance races and finish them."""
+
+    def test_target_beside_a_box_by_hand(self) -> None:
+        # One box on the oval's left lane at 30 % of the lap. Beside it the target is on the
+        # right (more room), its centre w/2 + car width/2 + clearance = 0.2 + 0.09805 + 0.1 m
+        # from the box's centre line; 5 m away nothing changes.
+        core = race_core("oval", 1, race_type="object_avoidance",
+                         obstacle_positions=((0.3, 1),))
+        s_box, d_box = core.obstacle_s[0, 0], core.obstacle_d[0, 0]
+        assert d_box > 0.1
+        want = np.array([0.05])
+        for gap, expected_offset, expected_speed in ((0.0, d_box - 0.39805, 2.2),
+                                                     (5.0, 0.05, 3.5)):
+            core.s[0, 0] = s_box - gap
+            core.d[0, 0] = expected_offset  # already on its side: no move-across limit
+            out, speed = avoid_obstacles(core, 0, core.s[:, 0] + 0.6, want, np.array([3.5]))
+            assert out[0] == pytest.approx(expected_offset, abs=1e-9)
+            assert speed[0] == pytest.approx(expected_speed)
 
     @pytest.mark.parametrize("driver,track", [("racing_line", "speedway"),
                                               ("pure_pursuit", "oval")])
