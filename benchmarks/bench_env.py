@@ -27,6 +27,7 @@ the timed loop never resets.
 from __future__ import annotations
 
 import argparse
+import os
 import platform
 import resource
 import time
@@ -154,7 +155,8 @@ def main() -> None:
     bench_core(args.track, 8, 0.2)
     print(f"machine: {platform.machine()}, {platform.python_implementation()} "
           f"{platform.python_version()}, numpy {np.__version__}; "
-          f"{'thread CPU time' if args.cpu_time else 'wall clock'}")
+          f"{'thread CPU time' if args.cpu_time else 'wall clock'}; h2h_racing from "
+          f"{os.path.dirname(os.path.dirname(h2h_racing.__file__))}")
     env_rate, _, _ = bench_parallel_env(args.track, seconds)
     print(f"ParallelEnv, 2 cars, state obs:       {env_rate:>10,.0f} env-steps/s")
     env_rate, new, touching = bench_parallel_env(args.track, seconds, contact=True)
