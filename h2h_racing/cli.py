@@ -165,7 +165,7 @@ def _cmd_camera(args: argparse.Namespace) -> int:
 
 
 def _cmd_train(args: argparse.Namespace) -> int:
-    from h2h_racing.league.train import train
+    from h2h_racing.training.train import train
 
     config = _train_config(args)
     runner = train(config, iterations=args.iterations, out=args.out, minutes=args.minutes)
@@ -176,7 +176,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
         print(f"DeepRacer simtrace + metrics -> {out / 'simtrace'} (deepracer-utils: "
               f"DeepRacerLog('{out / 'simtrace' / 'car_0'}').load_training_trace())")
     if args.onnx:
-        from h2h_racing.league.export import export_policy
+        from h2h_racing.training.export import export_policy
 
         # The exported actor is policy.pt's (the best iteration's with evaluation), checked.
         print(export_policy(out / "policy.pt", out, formats="onnx").summary())
@@ -184,7 +184,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from h2h_racing.league.export import export_policy, parse_formats
+    from h2h_racing.training.export import export_policy, parse_formats
     from h2h_racing.policies.trained import shipped_policies
 
     formats = parse_formats(args.format)
@@ -204,7 +204,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
 def _train_config(args: argparse.Namespace) -> object:
     """The ``TrainConfig`` of ``train``: the ``--config`` file's fields (``TrainConfig``'s
     defaults without one), then every flag given on the command line over them."""
-    from h2h_racing.league.train import TrainConfig
+    from h2h_racing.training.train import TrainConfig
 
     data: dict[str, object] = {}
     if args.config is not None:
@@ -259,7 +259,7 @@ def _reward_terms(text: str) -> dict[str, float]:
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
-    from h2h_racing.league.evaluate import Evaluation, evaluate
+    from h2h_racing.training.evaluate import Evaluation, evaluate
 
     if args.against:
         return _evaluate_head_to_head(args)
@@ -274,7 +274,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
 
 
 def _evaluate_head_to_head(args: argparse.Namespace) -> int:
-    from h2h_racing.league.evaluate import (combine, head_to_head, head_to_head_header,
+    from h2h_racing.training.evaluate import (combine, head_to_head, head_to_head_header,
                                             head_to_head_row)
     from h2h_racing.policies import make_driver
     from h2h_racing.track_io import list_tracks

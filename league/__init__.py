@@ -1,1 +1,1 @@
-"""Training adapter, leagues, ratings and tournaments."""
+"""Self-play leagues, tournaments, ratings and their store (training: ``h2h_racing.training``)."""

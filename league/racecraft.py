@@ -28,7 +28,7 @@ before that was stored, read from the key's ``slots=`` digits.
 
 ``racecraft_records`` reports a player's record by grid slot: wins from behind and from the
 front, passes and crashes caused per race. Stored matches do not hold defences;
-``evaluate --against`` reports those (``h2h_racing.league.evaluate.HeadToHead``).
+``evaluate --against`` reports those (``h2h_racing.training.evaluate.HeadToHead``).
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 A tournament is a list of *jobs*. A job is one group of players on one track, raced on
 several seeds, every seed in every seat order: all of a job's races run at once as env copies
-of one batched ``RaceCore`` (the same layout as ``league.evaluate.head_to_head``), so a job
+of one batched ``RaceCore`` (the same layout as ``training.evaluate.head_to_head``), so a job
 costs about as much as its longest race. Seat orders permute the grid slots, not the
 drivers, and every pairing uses the same start points (drawn from the tournament seed and the
 race index), so two players meet on exactly the conditions every other pair meets on.

@@ -1,4 +1,4 @@
-"""Trained policies as drivers: load a ``policy.pt`` written by ``h2h_racing.league.train``.
+"""Trained policies as drivers: load a ``policy.pt`` written by ``h2h_racing.training.train``.
 
 A policy file holds the actor's weights and the env and observation config it was trained
 with. It loads weights-only (``h2h_racing.policies.weights``: no pickled code runs) and its
@@ -22,7 +22,7 @@ if TYPE_CHECKING:
     from h2h_racing.core import RaceCore
 
 POLICY_FORMAT = "h2h-racing-policy/1"
-"""Value of the ``format`` key of a policy file (as written by ``league.train.save_policy``)."""
+"""Value of the ``format`` key of a policy file (as written by ``training.train.save_policy``)."""
 TRAINED_DIR = Path(__file__).resolve().parent / "trained"
 """Shipped policies: ``trained/<name>/policy.pt`` with a ``CARD.md`` beside it."""
 _OBSERVATION_KEYS = ("opponent_slots", "obstacle_slots")
@@ -99,7 +99,7 @@ class TrainedPolicy:
     def from_payload(cls, payload: dict[str, Any], name: str,
                      source: str = "<in-memory policy>") -> TrainedPolicy:
         """A driver from a policy payload held in memory (the dict a ``policy.pt`` file holds,
-        as ``h2h_racing.league.train.policy_payload`` builds it), without a file.
+        as ``h2h_racing.training.train.policy_payload`` builds it), without a file.
 
         Args:
             payload: The policy dict.
@@ -170,7 +170,7 @@ class TrainedPolicy:
     def _observe(self, core: RaceCore, car: int) -> dict[str, npt.NDArray[np.float32]]:
         from h2h_racing.sensors.state import MOTION_FEATURES, state_observation
 
-        # The groups of h2h_racing.league.vec_env, for one car; the actor reads the ones it
+        # The groups of h2h_racing.training.vec_env, for one car; the actor reads the ones it
         # was trained on (payload["obs_groups"]).
         state = state_observation(core)[:, car]
         groups = {"policy": np.ascontiguousarray(state),

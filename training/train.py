@@ -45,8 +45,8 @@ except ImportError as _error:
     raise missing_extra("train", "training", _error) from None
 
 from h2h_racing.config import EnvConfig, RaceRules, RewardConfig  # noqa: E402
-from h2h_racing.league.toml_types import check_fields  # noqa: E402
-from h2h_racing.league.vec_env import OBSERVATIONS, PoolOpponent, RacingVecEnv  # noqa: E402
+from h2h_racing.training.toml_types import check_fields  # noqa: E402
+from h2h_racing.training.vec_env import OBSERVATIONS, PoolOpponent, RacingVecEnv  # noqa: E402
 from h2h_racing.policies.scripted import TEACHERS  # noqa: E402
 from h2h_racing.track import Track  # noqa: E402
 from h2h_racing.track_gen import random_track  # noqa: E402
@@ -442,7 +442,7 @@ class TrainConfig:
         return load_action_space(self.model_metadata)
 
     def actor_groups(self) -> list[str]:
-        """Observation groups the actor reads (see ``h2h_racing.league.vec_env``)."""
+        """Observation groups the actor reads (see ``h2h_racing.training.vec_env``)."""
         return {"state": ["policy"], "camera": ["policy", "camera"],
                 "camera_only": ["camera", "motion"]}[self.observations]
 
@@ -474,12 +474,12 @@ class TrainConfig:
         if self.teacher is not None:
             if self.scripted_teacher:
                 teacher_groups = ["expert"]
-                teacher_model = {"class_name": "h2h_racing.league.train:ScriptedTeacher"}
+                teacher_model = {"class_name": "h2h_racing.training.train:ScriptedTeacher"}
             else:
                 teacher = teacher if teacher is not None else load_teacher(self)
                 teacher_groups = ["policy"]
                 teacher_model = {**copy.deepcopy(teacher["actor_cfg"]),
-                                 "class_name": "h2h_racing.league.train:ClippedTeacher"}
+                                 "class_name": "h2h_racing.training.train:ClippedTeacher"}
             return {
                 "num_steps_per_env": self.num_steps_per_env,
                 "save_interval": 50,
@@ -503,10 +503,10 @@ class TrainConfig:
         algorithm: dict[str, Any] = {"class_name": "PPO", "schedule": "adaptive",
                                      **dataclasses.asdict(self.ppo)}
         if self.imitation_coef:
-            algorithm.update(class_name="h2h_racing.league.train:ImitationPPO",
+            algorithm.update(class_name="h2h_racing.training.train:ImitationPPO",
                              imitation_coef=float(self.imitation_coef))
         elif self.max_std is not None:
-            algorithm["class_name"] = "h2h_racing.league.train:BoundedStdPPO"
+            algorithm["class_name"] = "h2h_racing.training.train:BoundedStdPPO"
         return {
             "num_steps_per_env": self.num_steps_per_env,
             "save_interval": 50,
@@ -646,7 +646,7 @@ def evaluate_during_training(runner: Any, config: TrainConfig, out: str | Path,
 
     The actor becomes a ``TrainedPolicy`` straight from memory (no file). On the evaluation
     track (``config.env_config().track``; ``speedway`` for procedural runs) it makes
-    ``config.eval_episodes`` one-lap attempts (``league.evaluate.evaluate``: training rules,
+    ``config.eval_episodes`` one-lap attempts (``training.evaluate.evaluate``: training rules,
     start points spread round the lap), then races one lap as car 0 (in race rules) against
     the training opponent, or against itself in self-play, or alone, with the race's grid
     drawn from ``config.seed`` so that every evaluation of a run races the same start. The
@@ -671,7 +671,7 @@ def evaluate_during_training(runner: Any, config: TrainConfig, out: str | Path,
     Returns:
         The figures, keyed as logged without the ``Eval/`` prefix.
     """
-    from h2h_racing.league.evaluate import evaluate
+    from h2h_racing.training.evaluate import evaluate
     from h2h_racing.match import run_race
     from h2h_racing.policies.trained import TrainedPolicy
 
@@ -978,7 +978,7 @@ TIGHT_WIDTH = (0.76, 0.9)
 def _maybe_reversed(rng: np.random.Generator, spec: Any, reverse_share: float) -> Track:
     """``spec`` as a ``Track``, on a ``reverse_share`` of draws driven clockwise."""
     track = Track(spec.centre, spec.width_left, spec.width_right, name=spec.name,
-                  description=spec.description, source="league.train.random_training_track")
+                  description=spec.description, source="training.train.random_training_track")
     # As above: no draw without reversing, so that older settings give the same tracks.
     if reverse_share > 0 and rng.random() < reverse_share:
         track = track.reversed()

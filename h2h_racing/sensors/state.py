@@ -58,7 +58,7 @@ OBSTACLE_FEATURES = 3
 MOTION_FEATURES = (0, 3)
 """Indices of the car's own forward speed and steering angle in the state vector: what a car
 knows of itself without seeing the world (odometry and its steering servo). Camera-only
-policies get these beside the image (``h2h_racing.league.vec_env``'s ``motion`` group)."""
+policies get these beside the image (``h2h_racing.training.vec_env``'s ``motion`` group)."""
 
 
 def state_size(opponent_slots: int, obstacle_slots: int) -> int:

@@ -35,7 +35,7 @@ class TestWheel:
             assert f"h2h_racing/catalogue/{track}.json" in names
             assert f"h2h_racing/catalogue/{track}.png" in names
         assert "h2h_racing/policies/scripted.py" in names
-        assert "h2h_racing/league/vec_env.py" in names
+        assert "h2h_racing/training/vec_env.py" in names
         for policy in (REPO / "policies" / "trained").glob("*/policy.pt"):
             name = policy.parent.name
             assert f"h2h_racing/policies/trained/{name}/policy.pt" in names

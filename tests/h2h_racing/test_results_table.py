@@ -101,7 +101,7 @@ def test_cli_says_where_the_video_went(tmp_path: Path, capsys) -> None:
 
 def test_a_policy_file_is_labelled_by_its_path_not_its_folder() -> None:
     pytest.importorskip("torch")
-    from h2h_racing.league.evaluate import Evaluation
+    from h2h_racing.training.evaluate import Evaluation
     from h2h_racing.policies.trained import TrainedPolicy, shipped_policies
 
     path = shipped_policies()["ppo_generalist"]

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from h2h_racing.league.selfplay import League, LeagueConfig, LearnerSpec
-from h2h_racing.league.vec_env import PoolOpponent
+from h2h_racing.training.vec_env import PoolOpponent
 from h2h_racing.policies import make_driver, race_core
 
 LEAGUE_DIR = Path(__file__).resolve().parents[2] / "league"
@@ -152,7 +152,7 @@ def test_max_std_reaches_the_learners(tmp_path):
 
 def test_imitation_term_reaches_the_learners():
     from h2h_racing.league.selfplay import _make_env
-    from h2h_racing.league.vec_env import PoolOpponent
+    from h2h_racing.training.vec_env import PoolOpponent
 
     config = LeagueConfig.from_toml(EXPERIMENTS_DIR / "guided.toml")
     train_config = config.train_config(seed=0)
@@ -230,7 +230,7 @@ def test_anchor_weighting_favours_the_anchor_the_learner_loses_to(tmp_path):
 
 
 def test_training_under_race_rules_runs():
-    from h2h_racing.league.train import TrainConfig, train
+    from h2h_racing.training.train import TrainConfig, train
 
     config = TrainConfig(track="oval", num_cars=2, learners=1, opponent="pure_pursuit",
                          num_envs=4, num_steps_per_env=8, rules="race", eval_every=0)

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from h2h_racing.config import CarParams
-from h2h_racing.league.evaluate import evaluate
+from h2h_racing.training.evaluate import evaluate
 from h2h_racing.match import run_race
 from h2h_racing.policies import RacingLine, compute_race_line, race_core
 from h2h_racing.policies.banded import CyclicPentadiagonal
@@ -144,7 +144,7 @@ class TestBandedSolver:
 
 
 def completion(track: Track, episodes: int = 20) -> float:
-    """Fraction of ``episodes`` one-lap attempts of racing_line completed (league.evaluate:
+    """Fraction of ``episodes`` one-lap attempts of racing_line completed (training.evaluate:
     training rules, so an infraction ends the attempt; starts spread round the lap)."""
     return evaluate(RacingLine(), track, episodes=episodes, seed=0).lap_completion
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from h2h_racing.league.evaluate import Evaluation, evaluate
+from h2h_racing.training.evaluate import Evaluation, evaluate
 
 
 class TestEvaluate:
@@ -40,7 +40,7 @@ class TestHeadToHead:
     """Two-car races in both seat orders from random starts."""
 
     def test_racing_line_beats_pure_pursuit(self) -> None:
-        from h2h_racing.league.evaluate import head_to_head
+        from h2h_racing.training.evaluate import head_to_head
 
         result = head_to_head("racing_line", "pure_pursuit", "oval", races=4, laps=1)
         # ~6 s against ~8.7 s a lap (policies/README): a sure win from either slot.
@@ -50,7 +50,7 @@ class TestHeadToHead:
     def test_races_must_pair_the_seat_orders(self) -> None:
         import pytest
 
-        from h2h_racing.league.evaluate import head_to_head
+        from h2h_racing.training.evaluate import head_to_head
 
         with pytest.raises(ValueError, match="even"):
             head_to_head("racing_line", "pure_pursuit", "oval", races=3)
@@ -62,7 +62,7 @@ class TestGridProtocols:
     def test_grid_slots_by_protocol(self) -> None:
         import pytest
 
-        from h2h_racing.league.evaluate import grid_slots
+        from h2h_racing.training.evaluate import grid_slots
 
         # Columns: A's slot, B's slot; slot 1 is the one behind.
         assert grid_slots(4, "both").tolist() == [[0, 1], [1, 0], [0, 1], [1, 0]]
@@ -74,7 +74,7 @@ class TestGridProtocols:
             grid_slots(0, "behind")
 
     def test_the_faster_car_wins_from_behind_by_passing(self) -> None:
-        from h2h_racing.league.evaluate import head_to_head
+        from h2h_racing.training.evaluate import head_to_head
 
         # ~6 s against ~8.7 s a lap of the oval (policies/README): from 0.75 m behind the
         # racing line must pass pure pursuit once in each race, and wins them all.
@@ -86,7 +86,7 @@ class TestGridProtocols:
         assert "won 2/2 from behind and 0/0 from the front" in result.summary()
 
     def test_the_slower_car_loses_from_the_front(self) -> None:
-        from h2h_racing.league.evaluate import head_to_head
+        from h2h_racing.training.evaluate import head_to_head
 
         result = head_to_head("pure_pursuit", "racing_line", "oval", races=2, laps=1,
                               start="front")
@@ -94,7 +94,7 @@ class TestGridProtocols:
         assert result.overtakes[1] >= 2
 
     def test_both_splits_the_wins_by_slot(self) -> None:
-        from h2h_racing.league.evaluate import head_to_head
+        from h2h_racing.training.evaluate import head_to_head
 
         result = head_to_head("racing_line", "pure_pursuit", "oval", races=4, laps=1)
         assert (result.races_behind, result.races_front) == (2, 2)
@@ -102,7 +102,7 @@ class TestGridProtocols:
 
     def test_gap_sets_how_far_behind_the_driver_starts(self) -> None:
         from h2h_racing.policies import make_driver
-        from h2h_racing.league.evaluate import head_to_head
+        from h2h_racing.training.evaluate import head_to_head
 
         class Spy:
             """The racing line, noting the cars' race distances at the start."""
@@ -128,14 +128,14 @@ class TestGridProtocols:
     def test_gap_must_fit_the_track(self) -> None:
         import pytest
 
-        from h2h_racing.league.evaluate import head_to_head
+        from h2h_racing.training.evaluate import head_to_head
 
         for gap in (0.0, -1.0, 1e6, float("nan")):
             with pytest.raises(ValueError, match="gap must be a distance"):
                 head_to_head("racing_line", "pure_pursuit", "oval", races=2, gap=gap)
 
     def test_combine_sums_tracks(self) -> None:
-        from h2h_racing.league.evaluate import HeadToHead, combine
+        from h2h_racing.training.evaluate import HeadToHead, combine
 
         one = HeadToHead(drivers=("a", "b"), track="oval", races=4, wins=(3, 1),
                          overtakes=(2, 1), crashes=(1, 0), finished=(4, 4), races_behind=2,

@@ -14,9 +14,9 @@ import torch
 import h2h_racing
 from h2h_racing.cli import main
 from h2h_racing.config import CameraConfig
-from h2h_racing.league import export as export_module
-from h2h_racing.league.export import export_policy
-from h2h_racing.league.train import TrainConfig, train
+from h2h_racing.training import export as export_module
+from h2h_racing.training.export import export_policy
+from h2h_racing.training.train import TrainConfig, train
 from h2h_racing.policies import make_driver
 from h2h_racing.policies.trained import shipped_policies
 from h2h_racing.sensors.state import MOTION_FEATURES

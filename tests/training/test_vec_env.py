@@ -10,7 +10,7 @@ import pytest
 import torch
 
 from h2h_racing.config import EnvConfig, RaceRules
-from h2h_racing.league.vec_env import RacingVecEnv
+from h2h_racing.training.vec_env import RacingVecEnv
 
 TRAIN_CFG = {
     "num_steps_per_env": 8, "save_interval": 100,

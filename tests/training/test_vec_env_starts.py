@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from h2h_racing.config import EnvConfig, RaceRules
-from h2h_racing.league.vec_env import RacingVecEnv
+from h2h_racing.training.vec_env import RacingVecEnv
 from h2h_racing.track_io import load_track
 
 L = load_track("oval").length  # 19.999672 m
