@@ -63,13 +63,15 @@ import numpy as np
 import numpy.typing as npt
 
 from h2h_racing import rewards
+from h2h_racing.extras import install_hint, missing_extra
+from h2h_racing.lifeline import death_signal_preexec, started_from_main_thread
 from h2h_racing.render import car_colour
 
 if TYPE_CHECKING:
     from h2h_racing.core import StepEvents
     from h2h_racing.env import RacingEnv
 
-INSTALL_HINT = 'pip install "h2h-racing[viz]"'
+INSTALL_HINT = install_hint("viz")
 """The command that installs the optional rerun dependency."""
 APPLICATION_ID = "h2h_racing"
 """Application id of every recording (recordings of one id share blueprints in the viewer)."""
@@ -81,7 +83,7 @@ EVENT_KINDS = ("start", "lap", "overtake", "collision", "off_track", "infraction
 METRICS = ("speed", "progress", "reward", "rank", "gap_to_leader")
 """Per-car scalars under ``/metrics/<name>/<agent>``."""
 REWARD_TERMS = rewards.TERMS
-"""Names of the reward terms in ``infos[agent]["reward_terms"]``, in logging order."""
+"""Names of the reward terms (``infos[agent]["reward_<term>"]``), in logging order."""
 TRACK_COLOURS = {"left_border": (235, 235, 235), "right_border": (235, 235, 235),
                  "centre": (225, 190, 40), "left_lane": (120, 120, 130),
                  "right_lane": (120, 120, 130), "start_line": (230, 60, 60)}
@@ -101,8 +103,7 @@ def import_rerun() -> Any:
     try:
         import rerun
     except ImportError as exc:
-        raise ImportError(f"recording races needs the optional rerun-sdk package, which is not "
-                          f"installed; install it with: {INSTALL_HINT}") from exc
+        raise missing_extra("viz", "recording races", exc) from exc
     return rerun
 
 
@@ -138,6 +139,39 @@ def _box_corners(centre: npt.NDArray[np.float64], yaw: npt.NDArray[np.float64],
     x = centre[..., None, 0] + c * local[:, 0] - s * local[:, 1]
     y = centre[..., None, 1] + s * local[:, 0] + c * local[:, 1]
     return np.stack([x, y], axis=-1)
+
+
+def check_ports_free(ports: dict[str, int], host: str = "127.0.0.1") -> None:
+    """Raise a clear error unless every port can be bound on ``host``.
+
+    The rerun server fails on a taken port only after it started, and a client connecting to
+    that port meanwhile reaches whatever holds it; a trial bind finds the clash up front.
+
+    Args:
+        ports: Argument name -> port (``{"web_port": 9090, "grpc_port": 9876}``).
+
+    Raises:
+        ValueError: A port out of range, two equal ports, or a port something else holds.
+    """
+    for name, port in ports.items():
+        if isinstance(port, bool) or not isinstance(port, int) or not 1 <= port <= 65535:
+            raise ValueError(f"{name} must be a port number in [1, 65535], got {port!r}")
+    if len(set(ports.values())) < len(ports):
+        raise ValueError(f"the viewer's ports must differ, got {ports}")
+    for name, port in ports.items():
+        probe = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        try:
+            if os.name == "posix":
+                # As servers do: a port whose last connection is in TIME_WAIT is free.
+                probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            probe.bind((host, port))
+        except OSError as err:
+            flag = "--" + name.replace("_", "-")
+            raise ValueError(f"{name} {port} is already in use on {host} ({err.strerror}): "
+                             f"stop what holds it or choose another port ({name}= or "
+                             f"{flag})") from None
+        finally:
+            probe.close()
 
 
 def _wait_for_port(port: int, process: subprocess.Popen, timeout: float) -> None:
@@ -176,7 +210,8 @@ class RaceRecorder:
 
     Raises:
         ImportError: rerun-sdk is not installed (the message says how to install it).
-        ValueError: No sink or a bad argument.
+        ValueError: No sink, a bad argument, or (``serve``) a port already in use on
+            127.0.0.1 (checked before the server starts).
     """
 
     def __init__(self, env: RacingEnv, path: str | Path | None = None, *, spawn: bool = False,
@@ -245,11 +280,17 @@ class RaceRecorder:
 
     # ------------------------------------------------------------------ setup
     def _start_server(self, web_port: int, grpc_port: int) -> str:
+        check_ports_free({"web_port": web_port, "grpc_port": grpc_port})
         command = [rerun_binary(), "--serve-web", "--bind", "127.0.0.1", "--port",
                    str(grpc_port), "--web-viewer-port", str(web_port),
                    "--server-memory-limit", "1GiB"]
+        # The server is a separate binary: a kill -9'd race would leave it holding the ports.
+        # On Linux the kernel ends it with us (the death signal belongs to the starting
+        # thread, so only the main thread arms it); elsewhere close() is the only stop.
+        preexec = death_signal_preexec() if started_from_main_thread() else None
         self._server = subprocess.Popen(command, stdout=subprocess.DEVNULL,
-                                        stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL)
+                                        stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL,
+                                        preexec_fn=preexec)
         try:
             _wait_for_port(grpc_port, self._server, timeout=20.0)
             _wait_for_port(web_port, self._server, timeout=20.0)
@@ -596,9 +637,8 @@ class RaceRecorder:
                       "rank": info["rank"], "gap_to_leader": info["gap_to_leader"]}
             if rewards is not None and agent in rewards:
                 values["reward"] = rewards[agent]
-                terms = info["reward_terms"]
                 rec.log(f"/cars/{agent}/reward_terms",
-                        rr.Scalars([terms[t] for t in REWARD_TERMS]))
+                        rr.Scalars([info[f"reward_{t}"] for t in REWARD_TERMS]))
             for name, value in values.items():
                 rec.log(f"/metrics/{name}/{agent}", rr.Scalars(float(value)))
         action = actions.get(agent)
