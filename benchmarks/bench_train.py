@@ -5,7 +5,7 @@
     python benchmarks/bench_train.py --camera         # also the camera rows (issue 21)
 
 What is timed: rsl-rl PPO iterations exactly as ``h2h-racing train`` runs them
-(``training.train.TrainConfig.rsl_rl_dict``: state observations, an MLP actor and critic,
+(``training.config.TrainConfig.rsl_rl_dict``: state observations, an MLP actor and critic,
 ``num_steps_per_env`` = 32 steps of ``--envs`` copies per iteration, then the update), with
 the loop of ``OnPolicyRunner.learn`` written out so that its two phases are timed apart:
 
@@ -47,7 +47,7 @@ os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
 
 import torch  # noqa: E402
 
-from h2h_racing.training.train import PPOConfig, TrainConfig  # noqa: E402
+from h2h_racing.training.config import PPOConfig, TrainConfig  # noqa: E402
 
 SETTINGS: dict[str, dict[str, Any]] = {
     "today": {},

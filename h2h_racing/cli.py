@@ -204,7 +204,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
 def _train_config(args: argparse.Namespace) -> object:
     """The ``TrainConfig`` of ``train``: the ``--config`` file's fields (``TrainConfig``'s
     defaults without one), then every flag given on the command line over them."""
-    from h2h_racing.training.train import TrainConfig
+    from h2h_racing.training.config import TrainConfig
 
     data: dict[str, object] = {}
     if args.config is not None:

@@ -346,7 +346,7 @@ class LeagueConfig:
         """The target KL of a learner's PPO steps in round ``round_index`` (0-based): for the
         main agents ``desired_kl * max(KL_FLOOR, 1 - round_index / main_kl_rounds)``, else
         ``desired_kl`` (``PPOConfig``'s)."""
-        from h2h_racing.training.train import PPOConfig
+        from h2h_racing.training.config import PPOConfig
 
         rounds = self.main_kl_rounds if role == "main" else None
         return PPOConfig().desired_kl * _fade(round_index, rounds, KL_FLOOR)
@@ -354,7 +354,7 @@ class LeagueConfig:
     def train_config(self, seed: int) -> Any:
         """The ``TrainConfig`` of every learner: two cars, one learner, race tracks."""
         from h2h_racing.config import RewardConfig
-        from h2h_racing.training.train import PPOConfig, TrainConfig
+        from h2h_racing.training.config import PPOConfig, TrainConfig
 
         return TrainConfig(track=self.tracks[0], num_cars=2, learners=1, opponent=None,
                            num_envs=self.num_envs, num_steps_per_env=self.num_steps_per_env,
@@ -409,7 +409,7 @@ def train_round(job: TrainJob) -> dict[str, float]:
     """Run one round of PPO for ``job.learner``; save its state; return round statistics."""
     os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
     # First: without torch, this import's error names the extra to install.
-    from h2h_racing.training.train import load_init, load_runner_state, save_policy
+    from h2h_racing.training.policy_file import load_init, load_runner_state, save_policy
 
     import torch
     from rsl_rl.runners import OnPolicyRunner

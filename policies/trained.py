@@ -1,4 +1,4 @@
-"""Trained policies as drivers: load a ``policy.pt`` written by ``h2h_racing.training.train``.
+"""Trained policies as drivers: load a ``policy.pt`` written by ``h2h_racing.training``.
 
 A policy file holds the actor's weights and the env and observation config it was trained
 with. It loads weights-only (``h2h_racing.policies.weights``: no pickled code runs) and its
@@ -22,7 +22,8 @@ if TYPE_CHECKING:
     from h2h_racing.core import RaceCore
 
 POLICY_FORMAT = "h2h-racing-policy/1"
-"""Value of the ``format`` key of a policy file (as written by ``training.train.save_policy``)."""
+"""Value of the ``format`` key of a policy file (as ``training.policy_file.save_policy`` writes
+it)."""
 TRAINED_DIR = Path(__file__).resolve().parent / "trained"
 """Shipped policies: ``trained/<name>/policy.pt`` with a ``CARD.md`` beside it."""
 _OBSERVATION_KEYS = ("opponent_slots", "obstacle_slots")
@@ -99,7 +100,7 @@ class TrainedPolicy:
     def from_payload(cls, payload: dict[str, Any], name: str,
                      source: str = "<in-memory policy>") -> TrainedPolicy:
         """A driver from a policy payload held in memory (the dict a ``policy.pt`` file holds,
-        as ``h2h_racing.training.train.policy_payload`` builds it), without a file.
+        as ``h2h_racing.training.policy_file.policy_payload`` builds it), without a file.
 
         Args:
             payload: The policy dict.

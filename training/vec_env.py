@@ -28,7 +28,7 @@ Observation groups (a ``TensorDict`` with batch size ``num_envs * learners``):
   camera models (which get the image alone) plus the car's odometry;
 - ``expert`` (with ``expert``): the action a scripted driver would take in the learner's place,
   (B, 2) float32 in [-1, 1], computed from the same state as the other groups. It is the label
-  of imitation learning (``h2h_racing.training.train.ScriptedTeacher``): the learner drives, the
+  of imitation learning (``h2h_racing.training.teachers.ScriptedTeacher``): the learner drives, the
   expert says what it would have done there (DAgger). No actor reads it.
 
 Training starts: ``random_starts`` (the default) starts each episode of a copy at a random

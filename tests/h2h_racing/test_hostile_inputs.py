@@ -280,7 +280,7 @@ def test_league_toml_names_the_key_of_a_value_of_the_wrong_type(tmp_path) -> Non
 
 
 def test_train_toml_names_the_key_of_a_value_of_the_wrong_type(tmp_path) -> None:
-    from h2h_racing.training.train import TrainConfig
+    from h2h_racing.training.config import TrainConfig
 
     path = write(tmp_path, "t.toml", 'num_envs = "64"\n')
     with pytest.raises(ValueError) as err:

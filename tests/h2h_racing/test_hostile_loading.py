@@ -160,7 +160,7 @@ class TestLearnerStateRoundTrip:
     def test_saved_state_resumes(self, tmp_path: Path) -> None:
         from h2h_racing.league import selfplay
         from h2h_racing.league.selfplay import LeagueConfig, TrainJob, train_round
-        from h2h_racing.training.train import load_runner_state
+        from h2h_racing.training.policy_file import load_runner_state
 
         config = LeagueConfig(tracks=("oval",), anchors=("racing_line",), init=None,
                               iterations_per_round=1, num_envs=2, num_steps_per_env=4)

@@ -230,7 +230,8 @@ def test_anchor_weighting_favours_the_anchor_the_learner_loses_to(tmp_path):
 
 
 def test_training_under_race_rules_runs():
-    from h2h_racing.training.train import TrainConfig, train
+    from h2h_racing.training.config import TrainConfig
+    from h2h_racing.training.train import train
 
     config = TrainConfig(track="oval", num_cars=2, learners=1, opponent="pure_pursuit",
                          num_envs=4, num_steps_per_env=8, rules="race", eval_every=0)

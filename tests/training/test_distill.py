@@ -13,7 +13,9 @@ from tensordict import TensorDict
 import h2h_racing
 from h2h_racing.config import CameraConfig
 from h2h_racing.training.evaluate import evaluate
-from h2h_racing.training.train import DistillConfig, TrainConfig, policy_payload, train
+from h2h_racing.training.config import DistillConfig, TrainConfig
+from h2h_racing.training.policy_file import policy_payload
+from h2h_racing.training.train import train
 from h2h_racing.training.vec_env import RacingVecEnv
 from h2h_racing.policies.trained import TrainedPolicy
 from h2h_racing.sensors.state import state_observation
@@ -83,7 +85,7 @@ class TestDistillation:
             self, distilled: tuple[Path, object]) -> None:
         from rsl_rl.models import MLPModel
 
-        from h2h_racing.training.train import ClippedTeacher
+        from h2h_racing.training.teachers import ClippedTeacher
 
         runner = distilled[1]
         obs = runner.env.get_observations()  # type: ignore[attr-defined]
@@ -170,10 +172,10 @@ class TestScriptedTeacher:
         assert self.CONFIG.scripted_teacher
         cfg = self.CONFIG.rsl_rl_dict()
         assert cfg["obs_groups"] == {"student": ["policy"], "teacher": ["expert"]}
-        assert cfg["teacher"] == {"class_name": "h2h_racing.training.train:ScriptedTeacher"}
+        assert cfg["teacher"] == {"class_name": "h2h_racing.training.teachers:ScriptedTeacher"}
 
     def test_teacher_returns_the_expert_group(self) -> None:
-        from h2h_racing.training.train import ScriptedTeacher
+        from h2h_racing.training.teachers import ScriptedTeacher
 
         runner = train(self.CONFIG, iterations=1)
         assert isinstance(runner.alg.teacher, ScriptedTeacher)
@@ -194,7 +196,7 @@ class TestScriptedTeacher:
                                 teacher_options={"margin": 0.2})
 
     def test_teacher_refuses_other_groups(self) -> None:
-        from h2h_racing.training.train import ScriptedTeacher
+        from h2h_racing.training.teachers import ScriptedTeacher
 
         obs = TensorDict({"policy": torch.zeros(2, 3)}, batch_size=[2])
         with pytest.raises(ValueError, match="reads the env's 'expert' observation group"):
@@ -240,7 +242,8 @@ class TestValidationTracks:
         assert (4 * training["validation_completion"]) % 1 == 0
 
     def test_held_out_tracks_are_not_training_tracks(self) -> None:
-        from h2h_racing.training.train import random_training_track, validation_tracks
+        from h2h_racing.training.tracks import random_training_track
+        from h2h_racing.training.train import validation_tracks
 
         config = dataclasses.replace(TEACHER_CONFIG, track="procedural", validation_tracks=3)
         rng = np.random.default_rng(config.seed + 1)

@@ -16,7 +16,8 @@ from h2h_racing.cli import main
 from h2h_racing.config import CameraConfig
 from h2h_racing.training import export as export_module
 from h2h_racing.training.export import export_policy
-from h2h_racing.training.train import TrainConfig, train
+from h2h_racing.training.config import TrainConfig
+from h2h_racing.training.train import train
 from h2h_racing.policies import make_driver
 from h2h_racing.policies.trained import shipped_policies
 from h2h_racing.sensors.state import MOTION_FEATURES

@@ -11,7 +11,8 @@ import torch
 from tensordict import TensorDict
 
 import h2h_racing
-from h2h_racing.training.train import TrainConfig, train
+from h2h_racing.training.config import TrainConfig
+from h2h_racing.training.train import train
 from h2h_racing.policies import make_driver
 from h2h_racing.policies.trained import TrainedPolicy, shipped_policies
 from h2h_racing.sensors.state import state_observation
@@ -235,7 +236,7 @@ class TestImitationPPO:
 
     def test_config_picks_the_algorithm_and_the_expert(self) -> None:
         algorithm = self.CONFIG.rsl_rl_dict()["algorithm"]
-        assert algorithm["class_name"] == "h2h_racing.training.train:ImitationPPO"
+        assert algorithm["class_name"] == "h2h_racing.training.ppo:ImitationPPO"
         assert algorithm["imitation_coef"] == 5.0
         assert self.CONFIG.make_env().expert.name == "racing_line"
         # Without the term: PPO (or BoundedStdPPO with max_std), and no expert group.
@@ -369,7 +370,7 @@ class TestProcedural:
         assert 0.76 <= float(track.width.min()) <= 1.07
 
     def test_evaluations_do_not_change_the_track_schedule(self, tmp_path: Path) -> None:
-        from h2h_racing.training.train import random_training_track
+        from h2h_racing.training.tracks import random_training_track
 
         # Evaluating after every iteration splits training into 1-iteration chunks, but with
         # track_every=2 the 2 iterations still run on the first random track only.
@@ -385,7 +386,7 @@ class TestProcedural:
         assert len(list((tmp_path / "eval").glob("iter_*.rrd"))) == 2
 
     def test_reversed_tracks_turn_the_other_way(self) -> None:
-        from h2h_racing.training.train import random_training_track
+        from h2h_racing.training.tracks import random_training_track
 
         ccw = random_training_track(np.random.default_rng(7), reverse_share=0.0)
         cw = random_training_track(np.random.default_rng(7), reverse_share=1.0)
@@ -402,7 +403,7 @@ class TestProcedural:
             dataclasses.replace(SMALL, procedural_chicanes=(3, 1))
 
     def test_chicanes_reach_the_training_tracks(self) -> None:
-        from h2h_racing.training.train import random_training_track
+        from h2h_racing.training.tracks import random_training_track
         from h2h_racing.track_gen import curvature
 
         # The same draws with and without chicanes: the chicane track turns right far
@@ -415,7 +416,7 @@ class TestProcedural:
                 > 2 * np.median([-curvature(p.centre).min() for p in plain]))
 
     def test_tight_tracks_are_short_narrow_and_twisty(self) -> None:
-        from h2h_racing.training.train import TIGHT_LENGTH, TIGHT_WIDTH, random_training_track
+        from h2h_racing.training.tracks import TIGHT_LENGTH, TIGHT_WIDTH, random_training_track
 
         plain = [random_training_track(np.random.default_rng(s)) for s in range(6)]
         tight = [random_training_track(np.random.default_rng(s), tight_share=1.0)

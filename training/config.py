@@ -1,0 +1,501 @@
+"""What a training run is: ``TrainConfig`` (frozen, validated) and its nested PPO and
+distillation configs; ``TrainConfig.from_toml`` reads a config file (``h2h-racing train
+--config``).
+
+``TrainConfig`` builds a fresh rsl-rl config dict for every runner (rsl-rl mutates the dict it
+is given), the env config the learners race in and the VecEnv (``make_env``). The loop that
+uses it is ``h2h_racing.training.train``.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from h2h_racing.config import EnvConfig, RaceRules, RewardConfig
+from h2h_racing.track import Track
+from h2h_racing.training.teachers import SCRIPTED_TEACHERS, load_teacher
+from h2h_racing.training.toml_types import check_fields
+from h2h_racing.training.tracks import random_training_track
+from h2h_racing.training.vec_env import OBSERVATIONS, PoolOpponent, RacingVecEnv
+
+STD_FLOOR = 1e-6
+"""Smallest policy standard deviation (rsl-rl's own floor) when ``TrainConfig.max_std`` is set."""
+PROCEDURAL = "procedural"
+"""``TrainConfig.track`` value that trains on a new random track every ``track_every``
+iterations."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class PPOConfig:
+    """PPO hyper-parameters (rsl-rl's ``algorithm`` section)."""
+
+    learning_rate: float = 1e-3
+    """Adam learning rate (adapted by the KL schedule)."""
+    num_learning_epochs: int = 4
+    """Passes over each rollout."""
+    num_mini_batches: int = 4
+    """Mini-batches per pass."""
+    clip_param: float = 0.2
+    """PPO ratio clip."""
+    gamma: float = 0.995
+    """Discount per step (1/15 s): a horizon of about 13 s."""
+    lam: float = 0.95
+    """GAE lambda."""
+    entropy_coef: float = 0.003
+    """Entropy bonus (0 turns it off)."""
+    desired_kl: float = 0.01
+    """Target KL of the adaptive learning-rate schedule."""
+    max_grad_norm: float = 1.0
+    """Gradient clipping."""
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if f.name == "entropy_coef":
+                if not isinstance(value, (int, float)) or value < 0:
+                    raise ValueError(f"PPOConfig.entropy_coef must be a number >= 0, got "
+                                     f"{value!r}")
+            elif not isinstance(value, (int, float)) or value <= 0:
+                raise ValueError(f"PPOConfig.{f.name} must be a number > 0, got {value!r}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class DistillConfig:
+    """Distillation hyper-parameters (rsl-rl's ``Distillation`` ``algorithm`` section)."""
+
+    learning_rate: float = 1e-3
+    """Adam learning rate (fixed)."""
+    num_learning_epochs: int = 1
+    """Passes over each rollout."""
+    gradient_length: int = 1
+    """Rollout steps whose losses are summed per gradient step (a divisor of
+    ``num_steps_per_env``, or the last steps of each pass are never learned from). Summing
+    only matters for recurrent students (backpropagation through time); for these
+    feed-forward ones 1 gives a gradient step per rollout step (a batch of ``num_envs``
+    samples) for the same compute."""
+    max_grad_norm: float = 1.0
+    """Gradient clipping."""
+    student_std: float = 0.1
+    """Standard deviation of the student's driving noise during rollouts (actions in
+    [-1, 1]; not learned): it visits states a little off the teacher's line, so that the
+    student learns to come back."""
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if not isinstance(value, (int, float)) or value <= 0:
+                raise ValueError(f"DistillConfig.{f.name} must be a number > 0, got {value!r}")
+        for name in ("num_learning_epochs", "gradient_length"):
+            if not isinstance(getattr(self, name), int):
+                raise ValueError(f"DistillConfig.{name} must be an int, got "
+                                 f"{getattr(self, name)!r}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class TrainConfig:
+    """What to train, on what, against whom."""
+
+    track: str = "speedway"
+    """Catalogue name, track file, ``random:<seed>``, or ``"procedural"``: a new random track
+    (``random_training_track`` with the ``procedural_*`` settings) every ``track_every``
+    iterations."""
+    track_every: int = 10
+    """Iterations between track changes with ``track="procedural"``."""
+    procedural_varying_share: float = 0.0
+    """Share of procedural tracks whose width varies along the lap (``random_training_track``).
+    0 (as ``ppo_procedural``): three 10-15 minute runs with 0.3, corners down to 0.45 m and
+    laps from 15 m generalised worse (53-69 % of laps on the shipped tracks against 79 %)."""
+    procedural_length: tuple[float, float] = (20.0, 45.0)
+    """Lap-length range of procedural tracks [m] (shorter laps of the same shapes have
+    tighter corners)."""
+    procedural_min_radius: float = 0.6
+    """Smallest corner radius of procedural tracks [m], raised to 1.2 x the widest half-width
+    on wider tracks (``technical`` has 0.5 m corners)."""
+    procedural_reverse_share: float = 0.0
+    """Share of procedural tracks driven clockwise (``Track.reversed``). The generator's loops
+    are star-shaped and run anticlockwise: their right-hand bends are gentle (tightest radius
+    1.2 m or more, median 4.9 m over 60 tracks), while ``technical`` turns right at 0.53 m,
+    ``hairpin_valley`` at 0.75 m; driven the other way, every tight left-hander is a tight
+    right-hander. 0 (as ``ppo_procedural``): a 1,020-iteration run with 0.5 lapped 75.0 % of
+    the shipped tracks' attempts against 79.3 %, still 0 % on ``technical`` (its card)."""
+    procedural_chicanes: tuple[int, int] = (0, 0)
+    """``(fewest, most)`` chicanes added to each procedural track (``random_track``'s
+    ``chicanes``): S-bends as on ``technical``'s start straight, which smooth loops lack.
+    (0, 0) (as ``ppo_procedural``): (1, 4) with half the tracks reversed and corners down to
+    0.5 m lapped 72.1 %, 0 % on ``technical``."""
+    procedural_tight_share: float = 0.0
+    """Share of procedural tracks that are short, narrow and twisty like ``technical``
+    (``random_training_track``'s ``tight_share``): the other generated tracks spend 0-5 % of
+    their lap in corners under 1 m radius, ``technical`` 40 %. 0.3 (with imitation of the
+    racing line, then PPO) trained ``ppo_generalist``, the first procedural policy to lap
+    ``technical``."""
+    observations: Literal["state", "camera", "camera_only"] = "state"
+    """Actor input: the state vector; the camera plus the state vector; or the camera plus the
+    car's own speed and steering angle (``camera_only``: DeepRacer's setting, no track geometry
+    and no other car's state). The critic always gets the privileged state."""
+    num_cars: int = 1
+    """Cars per env copy."""
+    opponent: str | None = None
+    """Driver of the cars that are not learners: a ``h2h_racing.policies`` driver name or a
+    ``policy.pt``, or several separated by commas, which share the env copies (copy ``e``
+    races the ``e mod k``-th of the ``k`` names; ``PoolOpponent``)."""
+    learners: int | None = None
+    """Learner cars per copy; None means every car (self-play with parameter sharing)."""
+    num_envs: int = 256
+    """Env copies."""
+    num_steps_per_env: int = 32
+    """Rollout length per iteration [steps]."""
+    hidden_dims: tuple[int, ...] = (128, 128)
+    """Hidden layer sizes of the actor and critic MLPs."""
+    init_std: float = 0.5
+    """Initial standard deviation of the Gaussian policy (actions in [-1, 1])."""
+    max_std: float | None = None
+    """Upper bound of the policy's standard deviation, held after every PPO update
+    (``BoundedStdPPO``); None leaves it unbounded, as the shipped policies were trained. The
+    env clips actions to [-1, 1], so once a mean sits past a bound, a wider Gaussian costs the
+    return nothing and the entropy bonus widens it for ever: the league mains of runs 5-7 went
+    from 0.3 to 2-4 in 30 minutes (league/README.md). A larger ``init_std`` (or
+    an ``init`` policy's std) is clamped to it."""
+    reward: RewardConfig = field(default_factory=RewardConfig)
+    """Reward weights."""
+    camera_size: tuple[int, int] = (64, 48)
+    """(width, height) of the camera image for camera policies [px]."""
+    seed: int = 0
+    """Seeds torch and the env."""
+    torch_threads: int = 1
+    """Torch intra-op threads. One is fastest for these small networks on a small machine:
+    with more threads than free cores, OpenMP's spinning threads slow the update ~10x."""
+    ppo: PPOConfig = field(default_factory=PPOConfig)
+    """PPO hyper-parameters."""
+    reward_function: str | None = None
+    """A DeepRacer reward file (``reward_function(params)``) replacing the built-in reward;
+    loaded once per learner car and env copy."""
+    model_metadata: str | None = None
+    """A DeepRacer ``model_metadata.json`` whose action space (discrete list or continuous
+    ranges) the cars use; its sensors are not used (``observations`` chooses the inputs)."""
+    simtrace_envs: int = 0
+    """Env copies whose DeepRacer simtrace + metrics logs ``train`` writes to
+    ``OUT/simtrace`` (0-10; 0 writes none)."""
+    eval_every: int = 50
+    """Iterations between evaluations of the current actor [iterations]; 0 turns them off.
+    Evaluations need an output folder (``train(out=...)``)."""
+    eval_episodes: int = 8
+    """Lap attempts per evaluation, from start points spread evenly round the lap."""
+    eval_race_seconds: float = 60.0
+    """Cap on the length of the recorded evaluation race [simulated s]."""
+    init: str | None = None
+    """A policy (shipped name or ``policy.pt``) whose actor weights training starts from
+    (fine-tuning; its observations and hidden sizes must be this run's); None starts from
+    random weights. The critic always starts fresh."""
+    teacher: str | None = None
+    """What to imitate with rsl-rl's ``Distillation`` instead of training with PPO: a
+    state-observation policy (shipped name or ``policy.pt``) distilled into a camera actor,
+    or a scripted driver (``SCRIPTED_TEACHERS``, e.g. ``"racing_line"``) imitated by any
+    actor. The student drives (DAgger: it learns on the states its own driving reaches) and is
+    regressed onto the teacher's actions there. The fast way to a camera policy on a CPU (no
+    critic, one pass per rollout), and a scripted teacher brings what it knows of every track
+    (``racing_line`` laps every shipped and generated track) to a state policy before PPO
+    fine-tunes it (``init``), as AlphaStar's agents start from supervised learning. None
+    trains with PPO."""
+    teacher_options: dict[str, float] = field(default_factory=dict)
+    """Constructor arguments of the scripted driver that labels actions (a scripted
+    ``teacher`` or the ``imitation_driver``), e.g. ``{"grip_factor": 0.6, "margin": 0.2}`` for
+    a ``RacingLine`` that corners at 60 % of the grip and keeps 0.2 m from the borders."""
+    imitation_driver: str | None = None
+    """A scripted driver (``SCRIPTED_TEACHERS``) that PPO's actor is kept near with
+    ``imitation_coef``."""
+    imitation_coef: float = 0.0
+    """Weight of a behaviour-cloning term in PPO (``ImitationPPO``): after each PPO update the
+    actor's mean actions in the rollout's states are regressed (MSE, one pass over the
+    mini-batches) onto the ``imitation_driver``'s actions in those states, as AlphaStar's
+    agents are kept near the supervised policy by a KL term (for Gaussians of equal std, a
+    squared distance of the means): reinforcement learning improves on the driver without
+    forgetting what it does well. 0 turns it off."""
+    validation_tracks: int = 0
+    """Procedural runs: held-out random tracks (drawn like the training tracks, from their own
+    seed, never trained on) on which every evaluation (``eval_every``) also makes
+    ``eval_episodes`` lap attempts each. With any, ``policy.pt`` holds the actor of the
+    evaluation with the highest lap completion on them (the later one on ties; the final
+    actor is evaluated too) rather than the last actor: one update can cost a policy a corner
+    type that the next track does not have."""
+    distill: DistillConfig = field(default_factory=DistillConfig)
+    """Distillation hyper-parameters (used with ``teacher``)."""
+    rules: Literal["training", "race"] = "training"
+    """``"training"``: DeepRacer's training rules, an infraction ends the car's episode;
+    ``"race"``: race rules, an infraction costs a time penalty (the car is frozen, the clock
+    runs) and the car goes on, as in the races a policy is judged in. One lap per episode,
+    at most 120 s, either way."""
+
+    def __post_init__(self) -> None:
+        if self.rules not in ("training", "race"):
+            raise ValueError(f"TrainConfig.rules must be 'training' or 'race', got "
+                             f"{self.rules!r}")
+        if self.observations not in OBSERVATIONS:
+            raise ValueError(f"TrainConfig.observations must be one of {OBSERVATIONS}, got "
+                             f"{self.observations!r}")
+        if not (isinstance(self.imitation_coef, (int, float)) and self.imitation_coef >= 0):
+            raise ValueError(f"TrainConfig.imitation_coef must be a number >= 0, got "
+                             f"{self.imitation_coef!r}")
+        if self.imitation_driver is not None and self.imitation_driver not in SCRIPTED_TEACHERS:
+            raise ValueError(f"TrainConfig.imitation_driver must be one of {SCRIPTED_TEACHERS}, "
+                             f"got {self.imitation_driver!r}")
+        if self.imitation_coef and (self.imitation_driver is None or self.teacher is not None):
+            raise ValueError("TrainConfig.imitation_coef keeps PPO's actor near a scripted "
+                             "driver: name it in imitation_driver (and leave teacher unset: a "
+                             "teacher replaces PPO by imitation)")
+        if self.teacher_options:
+            if not self.scripted_teacher and self.imitation_driver is None:
+                raise ValueError(f"TrainConfig.teacher_options are arguments of a scripted "
+                                 f"teacher or imitation_driver ({', '.join(SCRIPTED_TEACHERS)}), "
+                                 f"but teacher is {self.teacher!r}")
+            self.expert()
+        if not (isinstance(self.validation_tracks, int) and self.validation_tracks >= 0):
+            raise ValueError(f"TrainConfig.validation_tracks must be an int >= 0, got "
+                             f"{self.validation_tracks!r}")
+        if self.validation_tracks and self.track != PROCEDURAL:
+            raise ValueError("TrainConfig.validation_tracks are held-out random tracks for "
+                             "track='procedural' runs; a fixed track has no held-out tracks")
+        if self.validation_tracks and not self.eval_every:
+            raise ValueError("TrainConfig.validation_tracks are driven at the evaluations: set "
+                             "eval_every > 0 (iterations between them)")
+        if self.teacher is not None and self.observations == "state" and not self.scripted_teacher:
+            raise ValueError("TrainConfig.teacher distils a state policy into a camera policy: "
+                             "set observations to 'camera_only' or 'camera' (a state student "
+                             "of a state teacher would only copy it), or imitate a scripted "
+                             f"driver ({', '.join(SCRIPTED_TEACHERS)})")
+        for name in ("procedural_varying_share", "procedural_reverse_share",
+                     "procedural_tight_share"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise ValueError(f"TrainConfig.{name} must be in [0, 1], got "
+                                 f"{getattr(self, name)!r}")
+        fewest, most = self.procedural_chicanes
+        if not (isinstance(fewest, int) and isinstance(most, int) and 0 <= fewest <= most):
+            raise ValueError(f"TrainConfig.procedural_chicanes must be (fewest, most) ints with "
+                             f"0 <= fewest <= most, got {self.procedural_chicanes!r}")
+        low, high = self.procedural_length
+        if not 5.0 <= low <= high:
+            raise ValueError(f"TrainConfig.procedural_length must be (low, high) laps with "
+                             f"5 <= low <= high [m], got {self.procedural_length!r}")
+        if not 0.4 <= self.procedural_min_radius:
+            raise ValueError(f"TrainConfig.procedural_min_radius must be >= 0.4 m (above the "
+                             f"narrowest half-width, 0.38 m), got {self.procedural_min_radius!r}")
+        if self.num_envs < 1 or self.num_steps_per_env < 1:
+            raise ValueError("TrainConfig.num_envs and num_steps_per_env must be >= 1")
+        if self.max_std is not None and not (isinstance(self.max_std, (int, float))
+                                             and self.max_std > STD_FLOOR):
+            raise ValueError(f"TrainConfig.max_std must be None or a number > {STD_FLOOR}, got "
+                             f"{self.max_std!r}")
+        if not isinstance(self.simtrace_envs, int) or not 0 <= self.simtrace_envs <= min(
+                10, self.num_envs):
+            raise ValueError(f"TrainConfig.simtrace_envs must be an int in [0, "
+                             f"{min(10, self.num_envs)}] (at most 10 and num_envs), got "
+                             f"{self.simtrace_envs!r}")
+        if self.track == PROCEDURAL and (self.reward_function or self.simtrace_envs):
+            raise ValueError("TrainConfig: a DeepRacer reward function or simtrace logs need "
+                             "one track; pick a fixed track instead of 'procedural'")
+        for name in ("reward_function", "model_metadata"):
+            path = getattr(self, name)
+            if path is not None and not Path(path).is_file():
+                raise ValueError(f"TrainConfig.{name}: {path!r} is not a file; give the path "
+                                 f"of your DeepRacer {name.replace('_', ' ')} file")
+        if not (isinstance(self.eval_every, int) and self.eval_every >= 0):
+            raise ValueError(f"TrainConfig.eval_every must be an int >= 0 (iterations; 0 turns "
+                             f"evaluation off), got {self.eval_every!r}")
+        if not (isinstance(self.eval_episodes, int) and self.eval_episodes >= 1):
+            raise ValueError(f"TrainConfig.eval_episodes must be an int >= 1, got "
+                             f"{self.eval_episodes!r}")
+        if not (isinstance(self.eval_race_seconds, (int, float)) and self.eval_race_seconds > 0):
+            raise ValueError(f"TrainConfig.eval_race_seconds must be > 0 [s], got "
+                             f"{self.eval_race_seconds!r}")
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], source: str = "train config") -> TrainConfig:
+        """Build from plain data (a parsed TOML file): top-level keys are this class's fields,
+        the tables ``[ppo]``, ``[distill]`` and ``[reward]`` fill ``PPOConfig``,
+        ``DistillConfig`` and ``RewardConfig``; unknown keys raise ``ValueError``."""
+        nested = {"ppo": PPOConfig, "distill": DistillConfig, "reward": RewardConfig}
+        values = dict(data)
+        for key, kind in ((None, cls), *nested.items()):
+            table = values if key is None else values.get(key, {})
+            if key is not None and not isinstance(table, dict):
+                raise ValueError(f"{source}: {key!r} must be a table of {kind.__name__} fields, "
+                                 f"got {table!r}")
+            known = {f.name for f in dataclasses.fields(kind)}
+            unknown = sorted(set(table) - known)
+            if unknown:
+                where = "" if key is None else f"[{key}] "
+                raise ValueError(f"{source}: {where}unknown keys {unknown}; allowed keys are "
+                                 f"{sorted(known)}")
+        # Types first, so that a wrong one is named with its key (not "'<' not supported").
+        values = check_fields(cls, values, source)
+        for key, kind in nested.items():
+            if key in values and isinstance(values[key], dict):
+                values[key] = kind(**check_fields(kind, values[key], source, f"[{key}] "))
+        try:
+            return cls(**values)
+        except (TypeError, ValueError) as err:
+            raise ValueError(f"{source}: {err}") from None
+
+    @classmethod
+    def from_toml(cls, path: str | Path) -> TrainConfig:
+        """Read a training config file (see ``from_dict``; e.g.
+        ``policies/trained/ppo_generalist/imitate.toml``)."""
+        try:
+            with open(path, "rb") as handle:
+                data = tomllib.load(handle)
+        except tomllib.TOMLDecodeError as err:
+            raise ValueError(f"{path}: not valid TOML: {err}") from None
+        return cls.from_dict(data, source=str(path))
+
+    def opponents(self) -> list[str]:
+        """The drivers named by ``opponent`` (empty without one)."""
+        return [] if self.opponent is None else [n.strip() for n in self.opponent.split(",")]
+
+    @property
+    def scripted_teacher(self) -> bool:
+        """Whether ``teacher`` names a scripted driver (imitated through the ``expert`` group)."""
+        return self.teacher in SCRIPTED_TEACHERS
+
+    def expert(self) -> Any:
+        """The scripted driver that labels actions (the env's ``expert`` group): a scripted
+        ``teacher``, else the ``imitation_driver``, with ``teacher_options``; or None."""
+        name = self.teacher if self.scripted_teacher else self.imitation_driver
+        if name is None:
+            return None
+        from h2h_racing.policies import make_driver
+
+        try:
+            return make_driver(name, **self.teacher_options)
+        except TypeError as err:
+            raise ValueError(f"TrainConfig.teacher_options {self.teacher_options!r} do not fit "
+                             f"the {name!r} driver: {err}") from None
+
+    def procedural_track(self, rng: np.random.Generator) -> Track:
+        """A random training track drawn from ``rng`` with this run's ``procedural_*``
+        settings (``random_training_track``)."""
+        return random_training_track(rng, self.procedural_varying_share,
+                                     self.procedural_min_radius, self.procedural_length,
+                                     self.procedural_reverse_share, self.procedural_chicanes,
+                                     self.procedural_tight_share)
+
+    def env_config(self) -> EnvConfig:
+        """The env the learners race in: ``rules`` (DeepRacer's training rules by default: an
+        infraction ends the car's episode), one lap per episode (``track`` names the first
+        track; a procedural run starts on ``speedway`` and moves to random tracks)."""
+        race_type = "time_trial" if self.num_cars == 1 else "head_to_head"
+        camera = dataclasses.replace(EnvConfig().camera, width=self.camera_size[0],
+                                     height=self.camera_size[1])
+        track = "speedway" if self.track == PROCEDURAL else self.track
+        rules = RaceRules.preset(race_type, "training")
+        if self.rules == "race":
+            rules = dataclasses.replace(RaceRules.preset(race_type, "race"), laps=rules.laps,
+                                        time_limit=rules.time_limit, ranking="total_time",
+                                        max_resets_per_lap=None)
+        return EnvConfig(track=track, num_cars=self.num_cars, race_type=race_type,
+                         rules=rules, reward=self.reward,
+                         camera=camera, **self.action_space())
+
+    def action_space(self) -> dict[str, Any]:
+        """The ``EnvConfig`` action-space overrides of ``model_metadata`` (empty without)."""
+        if self.model_metadata is None:
+            return {}
+        from h2h_racing.deepracer.metadata import load_action_space
+
+        return load_action_space(self.model_metadata)
+
+    def actor_groups(self) -> list[str]:
+        """Observation groups the actor reads (see ``h2h_racing.training.vec_env``)."""
+        return {"state": ["policy"], "camera": ["policy", "camera"],
+                "camera_only": ["camera", "motion"]}[self.observations]
+
+    def actor_dict(self) -> dict[str, Any]:
+        """rsl-rl config of the actor (the student when distilling): an MLP on the state, a CNN
+        (then an MLP) with a camera."""
+        camera = self.observations != "state"
+        init_std = self.distill.student_std if self.teacher is not None else self.init_std
+        actor: dict[str, Any] = {
+            "class_name": "CNNModel" if camera else "MLPModel",
+            "hidden_dims": list(self.hidden_dims), "obs_normalization": True,
+            "distribution_cfg": {"class_name": "GaussianDistribution", "init_std": init_std}}
+        if self.max_std is not None and self.teacher is None:
+            actor["distribution_cfg"]["std_range"] = [STD_FLOOR, float(self.max_std)]
+            actor["distribution_cfg"]["init_std"] = min(init_std, float(self.max_std))
+        if camera:
+            # Three stride-2 convolutions, then flattened (no global pooling: where the lines
+            # and cars are in the image is what steers): 64 x 48 -> 8 x 6 x 16 = 768 features.
+            actor["cnn_cfg"] = {"output_channels": [16, 32, 16], "kernel_size": [5, 3, 3],
+                                "stride": [2, 2, 2], "padding": "zeros"}
+        return actor
+
+    def rsl_rl_dict(self, teacher: dict[str, Any] | None = None) -> dict[str, Any]:
+        """Return a fresh rsl-rl runner config (rsl-rl mutates what it is given): PPO's for an
+        ``OnPolicyRunner``, or with ``teacher`` Distillation's for a ``DistillationRunner``,
+        whose teacher model config comes from the teacher's policy dict (``load_teacher``;
+        loaded here unless given)."""
+        actor = self.actor_dict()
+        if self.teacher is not None:
+            if self.scripted_teacher:
+                teacher_groups = ["expert"]
+                teacher_model = {"class_name": "h2h_racing.training.teachers:ScriptedTeacher"}
+            else:
+                teacher = teacher if teacher is not None else load_teacher(self)
+                teacher_groups = ["policy"]
+                teacher_model = {**copy.deepcopy(teacher["actor_cfg"]),
+                                 "class_name": "h2h_racing.training.teachers:ClippedTeacher"}
+            return {
+                "num_steps_per_env": self.num_steps_per_env,
+                "save_interval": 50,
+                "obs_groups": {"student": self.actor_groups(), "teacher": teacher_groups},
+                "algorithm": {"class_name": "Distillation", "loss_type": "mse",
+                              **{k: v for k, v in dataclasses.asdict(self.distill).items()
+                                 if k != "student_std"}},
+                "student": actor,
+                "teacher": teacher_model,
+            }
+        # The critic reads the privileged state; with the camera and the state vector it also
+        # gets the camera (as first built). A camera-only actor's critic needs no CNN: the
+        # privileged state holds what the value depends on, at a fraction of the update cost.
+        critic: dict[str, Any] = {"class_name": "MLPModel",
+                                  "hidden_dims": list(self.hidden_dims), "obs_normalization": True}
+        critic_groups = ["critic"]
+        if self.observations == "camera":
+            critic = {**critic, "class_name": "CNNModel",
+                      "cnn_cfg": copy.deepcopy(actor["cnn_cfg"])}
+            critic_groups = ["critic", "camera"]
+        algorithm: dict[str, Any] = {"class_name": "PPO", "schedule": "adaptive",
+                                     **dataclasses.asdict(self.ppo)}
+        if self.imitation_coef:
+            algorithm.update(class_name="h2h_racing.training.ppo:ImitationPPO",
+                             imitation_coef=float(self.imitation_coef))
+        elif self.max_std is not None:
+            algorithm["class_name"] = "h2h_racing.training.ppo:BoundedStdPPO"
+        return {
+            "num_steps_per_env": self.num_steps_per_env,
+            "save_interval": 50,
+            "obs_groups": {"actor": self.actor_groups(), "critic": critic_groups},
+            "algorithm": algorithm,
+            "actor": actor,
+            "critic": critic,
+        }
+
+    def make_env(self, device: str = "cpu", simtrace: str | Path | None = None) -> RacingVecEnv:
+        """Build the VecEnv for this config (logging ``simtrace_envs`` copies to ``simtrace``
+        when both are given)."""
+        log = None if simtrace is None or not self.simtrace_envs else str(simtrace)
+        opponent: Any = self.opponent
+        if opponent is not None and "," in opponent:
+            names = self.opponents()
+            opponent = PoolOpponent(tuple(names[e % len(names)] for e in range(self.num_envs)),
+                                    seed=self.seed)
+        return RacingVecEnv(self.env_config(), num_envs=self.num_envs, learners=self.learners,
+                            opponent=opponent, observations=self.observations,
+                            seed=self.seed, device=device, reward_function=self.reward_function,
+                            simtrace=log, simtrace_envs=max(self.simtrace_envs, 1),
+                            expert=self.expert())

@@ -1,0 +1,132 @@
+"""The policy file format, and loading weights into a runner.
+
+``policy_payload`` and ``save_policy`` write a trained actor as a self-contained
+``policy.pt``: only tensors and plain Python values (it loads with
+``torch.load(weights_only=True)``), with the actor's config and the env and training configs
+it was trained with, under the ``format`` key ``POLICY_FORMAT``. ``h2h_racing.policies.trained``
+reads it back as a driver. ``load_init`` starts a runner's actor from a policy file
+(``TrainConfig.init``); ``load_runner_state`` loads an rsl-rl runner state weights-only (a
+league learner's ``runner.pt``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl imports GitPython
+
+from h2h_racing.extras import missing_extra  # noqa: E402
+
+try:
+    import torch  # noqa: E402
+except ImportError as _error:
+    raise missing_extra("train", "training", _error) from None
+
+from h2h_racing.policies.trained import POLICY_FORMAT  # noqa: E402
+from h2h_racing.training.ppo import project_std  # noqa: E402
+
+if TYPE_CHECKING:
+    from h2h_racing.training.config import TrainConfig
+
+def policy_payload(runner: Any, config: TrainConfig,
+                   training: dict[str, float] | None = None) -> dict[str, Any]:
+    """The policy dict of ``runner``'s actor: weights (copied, so later training does not
+    change them), the actor's config and the configs it was trained with. It holds only
+    tensors and plain Python values (see ``save_policy``; ``TrainedPolicy.from_payload``
+    drives with it directly)."""
+    return {
+        "format": POLICY_FORMAT,
+        "actor_state_dict": {key: value.detach().clone()
+                             for key, value in runner.alg.get_policy().state_dict().items()},
+        "actor_cfg": config.actor_dict(),
+        "obs_groups": config.actor_groups(),
+        "observations": config.observations,
+        "env_config": _plain(config.env_config().to_dict()),
+        "train_config": _plain(dataclasses.asdict(config)),
+        "training": dict(training or {}),
+    }
+
+
+def save_policy(runner: Any, config: TrainConfig, path: str | Path,
+                training: dict[str, float] | None = None,
+                payload: dict[str, Any] | None = None) -> Path:
+    """Write the actor of ``runner`` (or the earlier actor of ``payload``, a ``policy_payload``)
+    and the configs it was trained with to ``path``, with ``training`` figures.
+
+    The file holds only tensors and plain Python values, so it loads with
+    ``torch.load(path, weights_only=True)``.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if payload is None:
+        payload = policy_payload(runner, config, training)
+    else:
+        payload = {**payload, "training": dict(training or {})}
+    torch.save(payload, path)
+    return path
+
+
+def _plain(value: Any) -> Any:
+    """Tuples to lists, recursively, so that the dict is plain JSON-like data."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
+
+
+def load_init(runner: Any, init: str) -> None:
+    """Load the actor weights of policy ``init`` (shipped name or path) into ``runner``'s
+    actor (the student when distilling), its std projected into this run's range (an init
+    trained without ``max_std`` may have a std of 10).
+
+    Raises:
+        FileNotFoundError, ValueError: ``init`` is not a policy, or its actor does not fit.
+    """
+    from h2h_racing.policies.trained import load_policy_payload
+
+    payload = load_policy_payload(init)
+    load_actor(runner.alg.get_policy(), payload, f"init policy {init!r}")
+    project_std(runner.alg.get_policy())
+
+
+def load_actor(model: Any, payload: dict[str, Any], what: str) -> None:
+    """Load policy dict ``payload``'s actor weights into ``model`` (strictly), or raise a
+    ``ValueError`` that says ``what`` does not fit and which tensors differ."""
+    try:
+        model.load_state_dict(payload["actor_state_dict"])
+    except (RuntimeError, TypeError, ValueError) as err:
+        raise ValueError(f"{what} does not fit the actor being trained (hidden sizes or "
+                         f"observations differ): {' '.join(str(err).split())}") from None
+
+
+RUNNER_STATE_KEYS = {"actor_state_dict": dict, "critic_state_dict": dict,
+                     "optimizer_state_dict": dict, "iter": int}
+"""What rsl-rl's ``OnPolicyRunner.save`` writes (``PPO.save()`` plus ``iter`` and ``infos``)
+and ``load_runner_state`` needs."""
+
+
+def load_runner_state(runner: Any, path: str | Path) -> None:
+    """Load a ``runner.pt`` written by rsl-rl's ``OnPolicyRunner.save`` into ``runner``, as
+    its ``load`` does (actor, critic, optimizer, iteration), but weights-only: rsl-rl's own
+    ``load`` unpickles with ``weights_only=False``, which runs whatever code the file holds.
+
+    Raises:
+        FileNotFoundError, ValueError: The file is missing, unreadable, unsafe, lacks a key, or
+            its tensors do not fit ``runner``'s networks; the message names the file.
+    """
+    from h2h_racing.policies.weights import WeightsFileError, check_keys, load_weights
+
+    expected = ("a league learner's rsl-rl runner state (runner.pt: actor, critic and "
+                "optimizer state dicts and the iteration, as `league train` writes it)")
+    state = check_keys(load_weights(path, expected), RUNNER_STATE_KEYS, str(path), expected)
+    try:
+        runner.alg.load(state, None, True)
+    except (RuntimeError, TypeError, ValueError, KeyError) as err:
+        raise WeightsFileError(f"{path}: does not fit this league's learner (its network "
+                               f"sizes or observations differ): {type(err).__name__}: "
+                               f"{' '.join(str(err).split())}") from None
+    runner.current_learning_iteration = state["iter"]

@@ -1,0 +1,75 @@
+"""Random training tracks of procedural runs (``TrainConfig.track = "procedural"``): lap
+length, width, corner radii, chicanes, direction and a share of tight, ``technical``-like
+tracks, each drawn from one generator."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from h2h_racing.track import Track
+from h2h_racing.track_gen import random_track
+
+
+def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
+                          min_radius: float = 0.6,
+                          length: tuple[float, float] = (20.0, 45.0),
+                          reverse_share: float = 0.0,
+                          chicanes: tuple[int, int] = (0, 0),
+                          tight_share: float = 0.0) -> Track:
+    """A random closed track for training: lap length drawn in ``length`` [m], width in the
+    catalogue's range [0.76, 1.07] m: constant (drawn uniformly) or, on a ``varying_share`` of
+    the tracks, varying along the lap between two widths drawn in that range (sorted); corners
+    down to ``min_radius`` [m], or 1.2 x the widest half-width if that is larger
+    (``random_track``), with a number of chicanes drawn in ``chicanes``; on a
+    ``reverse_share`` of the tracks driven clockwise (its name then ends in ``-cw``).
+
+    A ``tight_share`` of the tracks are instead short, narrow and twisty, as ``technical`` is:
+    lap ``TIGHT_LENGTH``, constant width ``TIGHT_WIDTH``, control-point radii down to 0.3 of
+    the loop's size (deep bays: tight right-handers between left-handers), corners down to
+    ``min_radius``, 1-3 chicanes; 5-20 % of their lap is in corners under 1 m radius, against
+    0-5 % for the other tracks (``technical``: 40 %)."""
+    # No draw without the option: the same seed gives the same tracks as before it.
+    if tight_share > 0 and rng.random() < tight_share:
+        width: float | tuple[float, float] = float(rng.uniform(*TIGHT_WIDTH))
+        # About 1 in 12 calls of random_track finds no valid loop of this kind in its 100
+        # tries; the next call (same generator, new draws) almost always does.
+        for attempt in range(5):
+            try:
+                spec = random_track(rng, length_range=TIGHT_LENGTH, width=width,
+                                    min_radius=max(min_radius, 0.6 * width),
+                                    radius_range=(0.3, 1.0), chicanes=(1, 3))
+                break
+            except RuntimeError:
+                if attempt == 4:
+                    raise
+        return _maybe_reversed(rng, spec, reverse_share)
+    width = float(rng.uniform(0.76, 1.07))
+    # No draw without varying widths: the same seed gives the same tracks as before the option.
+    if varying_share > 0 and rng.random() < varying_share:
+        width = (min(width, w := float(rng.uniform(0.76, 1.07))), max(width, w))
+    widest = width if isinstance(width, float) else width[1]
+    spec = random_track(rng, length_range=length, width=width,
+                        min_radius=max(min_radius, 0.6 * widest), chicanes=chicanes)
+    return _maybe_reversed(rng, spec, reverse_share)
+
+
+TIGHT_LENGTH = (14.0, 22.0)
+"""Lap-length range of ``random_training_track``'s tight tracks [m] (``technical``: 20 m)."""
+TIGHT_WIDTH = (0.76, 0.9)
+"""Width range of the tight tracks [m] (``technical``: 0.76 m)."""
+
+
+def _maybe_reversed(rng: np.random.Generator, spec: Any, reverse_share: float) -> Track:
+    """``spec`` as a ``Track``, on a ``reverse_share`` of draws driven clockwise."""
+    track = Track(spec.centre, spec.width_left, spec.width_right, name=spec.name,
+                  description=spec.description,
+                  source="training.tracks.random_training_track")
+    # As above: no draw without reversing, so that older settings give the same tracks.
+    if reverse_share > 0 and rng.random() < reverse_share:
+        track = track.reversed()
+        track = Track(track.centre, track.width_left, track.width_right,
+                      name=f"{spec.name}-cw", description=f"{spec.description} Driven clockwise.",
+                      source=track.source)
+    return track
