@@ -19,7 +19,7 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-from h2h_racing.track import project_kernel
+from h2h_racing.track_projection import project_kernel
 from h2h_racing.track_lookup import lookup, wrap_arc
 
 

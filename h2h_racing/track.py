@@ -10,7 +10,9 @@ questions the simulation core asks every step, vectorised over any leading shape
 * :meth:`Track.point_at`, :meth:`Track.heading_at`, :meth:`Track.curvature_at`,
   :meth:`Track.half_widths_at`, :meth:`Track.lane_point` go the other way.
 
-This module is pure numpy (no pymunk, cv2 or pettingzoo); loaders live in :mod:`h2h_racing.track_io`.
+This module is pure numpy (no pymunk, cv2 or pettingzoo); loaders live in :mod:`h2h_racing.track_io`,
+the polyline geometry and self-crossing checks in :mod:`h2h_racing.track_geometry`, and the projection
+lookup grid with its compiled kernel in :mod:`h2h_racing.track_projection`.
 
 **Frenet inverse.** The nearest-point map onto a polyline is not smooth: on the outside of a vertex a whole
 wedge of points projects onto the vertex, and on the inside ``s`` jumps by ``2|d|tan(turn/2)`` across the
@@ -25,16 +27,16 @@ this zone is about 1.8 cm around each vertex and the error there is below 2 cm.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from numba import njit
+
+from h2h_racing.track_geometry import _centre_geometry, _check_no_fold, _check_simple, _ro
+from h2h_racing.track_projection import Projector, project_kernel
 
 FloatArray = npt.NDArray[np.float64]
-IntArray = npt.NDArray[np.intp]
 
 CAR_WIDTH = 0.20
 """Width of a car [m]; a track must be at least two car widths wide everywhere."""
@@ -42,29 +44,10 @@ MIN_TOTAL_WIDTH = 2 * CAR_WIDTH
 """Smallest allowed ``width_left + width_right`` [m]."""
 BLEND_HALF_WIDTH = 0.01
 """Largest half-width [m] of the zone around a vertex over which the normal rotates between segments."""
-GRID_CELL = 0.1
-"""Preferred cell size [m] of the projection lookup grid."""
-GRID_MARGIN = 2.0
-"""Margin [m] of the lookup grid around the track bounds; points beyond it are answered exactly too."""
-GRID_MAX_CELLS = 200_000
-"""Cap on the number of grid cells; large (full-scale) circuits get coarser cells."""
-WINDOW_ARC = 0.4
-"""Arc length [m] each side of a cell's nearest segment searched when refining a query."""
 BORDER_TOLERANCE = 0.005
 """Largest overlap [m] of an explicit (file-given) border crossing that is accepted as a drawing glitch."""
 
 _ALL = np.zeros(0, dtype=bool)  # an empty mask means "project every point"
-_CHUNK_ELEMENTS = 2_000_000  # size of the (segments x segments) blocks of the crossing check
-# Size of the (cells x segments) blocks of the projection grid build: each block holds about ten
-# temporaries of 8-16 bytes per element, so 2**17 elements keep the build near 20 MiB (2M took
-# ~140 MiB, the peak of every process).
-_GRID_CHUNK_ELEMENTS = 1 << 17
-
-
-def _ro(a: np.ndarray) -> np.ndarray:
-    """Return ``a`` flagged read-only (the array is owned by the track)."""
-    a.flags.writeable = False
-    return a
 
 
 def _as_xy(name: str, value: Any, where: str) -> FloatArray:
@@ -487,303 +470,3 @@ class Track:
             right_border=self.left_border[order] if self._explicit_borders else None,
             waypoints=self.waypoints[::-1],
         )
-
-
-# ---------------------------------------------------------------------- geometry helpers
-
-
-def _centre_geometry(centre: FloatArray, where: str) -> dict[str, Any]:
-    """Segment lengths, arc positions, unwrapped headings and vertex normals of a closed polyline.
-
-    Zero-length segments (duplicate consecutive vertices) are skipped when defining headings and normals:
-    the distinct vertices ("kept", the first of each run of duplicates) form the compressed polyline.
-    """
-    m = len(centre)
-    seg = np.roll(centre, -1, axis=0) - centre
-    seg_len = np.hypot(seg[:, 0], seg[:, 1])
-    vertex_s = np.concatenate([[0.0], np.cumsum(seg_len[:-1])])
-    length = float(seg_len.sum())
-    # Vertex i is kept when the segment arriving at it has non-zero length.
-    keep = np.flatnonzero(np.roll(seg_len, 1) > 0)
-    # The compressed segment leaving kept vertex v starts at it and runs to the next kept vertex; its first
-    # original segment is the non-zero one leaving the last duplicate of v.
-    nxt = np.roll(keep, -1)
-    seg_of_kept = (nxt - 1) % m
-    cseg = centre[nxt] - centre[keep]
-    ang = np.arctan2(cseg[:, 1], cseg[:, 0])
-    turn = np.diff(ang)
-    turn = (turn + np.pi) % (2 * np.pi) - np.pi
-    psi = np.concatenate([[ang[0]], ang[0] + np.cumsum(turn)])
-    closing = (ang[0] - ang[-1] + np.pi) % (2 * np.pi) - np.pi
-    total = float(psi[-1] - psi[0] + closing)
-
-    # Unit tangent of every original segment (a zero-length one borrows the compressed segment it lies in,
-    # which gives project() a sign for d there).
-    tangent = np.stack([np.cos(ang), np.sin(ang)], axis=1)
-    owner = np.searchsorted(keep, np.arange(m), side="right") - 1  # kept vertex at or before each vertex
-    seg_tangent = tangent[owner % len(keep)]
-    # Vertex normal = mean of the incoming and outgoing segment normals (normalised).
-    seg_normal = np.stack([-tangent[:, 1], tangent[:, 0]], axis=1)
-    nsum = seg_normal + np.roll(seg_normal, 1, axis=0)
-    nlen = np.hypot(nsum[:, 0], nsum[:, 1])
-    if np.any(nlen < 1e-9):
-        v = int(keep[np.argmax(nlen < 1e-9)])
-        raise ValueError(
-            f"{where}: the centre line reverses direction (a 180 degree spike) at vertex {v} "
-            f"({centre[v, 0]:.4f}, {centre[v, 1]:.4f}); remove the spike."
-        )
-    vertex_normal = (nsum / nlen[:, None])[owner % len(keep)]
-    x, y = centre[:, 0], centre[:, 1]
-    area = 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
-    return {
-        "seg_len": seg_len,
-        "vertex_s": _ro(vertex_s),
-        "length": length,
-        "keep": keep,
-        "seg_of_kept": seg_of_kept,
-        "psi": psi,
-        "total_turn": total,
-        "seg_tangent": seg_tangent,
-        "vertex_normal": vertex_normal,
-        "area": area,
-    }
-
-
-def _check_no_fold(centre: FloatArray, border: FloatArray, what: str, where: str) -> None:
-    """Raise ``ValueError`` where a computed border runs backwards relative to the centre line.
-
-    Offsetting a curve of radius ``r`` by ``w > r`` towards its centre reverses the offset curve (a cusp or an
-    inverted loop, which need not cross itself, e.g. a circle of radius 0.5 offset by 0.6 is a circle of
-    radius 0.1): a border segment whose direction opposes its centre segment (negative dot product) shows it.
-    """
-    dc = np.roll(centre, -1, axis=0) - centre
-    db = np.roll(border, -1, axis=0) - border
-    bad = np.sum(dc * db, axis=1) < 0
-    if bad.any():
-        i = int(np.argmax(bad))
-        raise ValueError(
-            f"{where}: the {what} folds back at vertex {i} ({centre[i, 0]:.4f}, {centre[i, 1]:.4f}): the radius of "
-            "curvature there is smaller than the half-width. Widen the corner or narrow the track there."
-        )
-
-
-def _check_simple(poly: FloatArray, what: str, where: str, tolerance: float) -> None:
-    """Raise ``ValueError`` if the closed polyline ``poly`` crosses or touches itself.
-
-    Vectorised segment-segment test over all pairs of non-adjacent segments (chunked), after dropping
-    zero-length segments. Two segments meet iff each one's endpoints are not strictly on the same side of
-    the other (orientation signs) and their bounding boxes overlap (which settles the collinear case).
-    With ``tolerance > 0`` a crossing is ignored when the smaller of the four endpoint-to-other-segment
-    distances is at most ``tolerance`` (a crossing that barely overlaps).
-    """
-    seg_len = np.hypot(*(np.roll(poly, -1, axis=0) - poly).T)
-    idx = np.flatnonzero(np.roll(seg_len, 1) > 0)  # distinct vertices
-    q = poly[idx]
-    n = len(q)
-    if n < 4:
-        return
-    a, b = q, np.roll(q, -1, axis=0)
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
-
-    def orient(p: FloatArray, r: FloatArray, t: FloatArray) -> FloatArray:
-        return (r[..., 0] - p[..., 0]) * (t[..., 1] - p[..., 1]) - (r[..., 1] - p[..., 1]) * (t[..., 0] - p[..., 0])
-
-    step = max(1, _CHUNK_ELEMENTS // (8 * n))
-    jj = np.arange(n)
-    for i0 in range(0, n, step):
-        ii = np.arange(i0, min(n, i0 + step))
-        ai, bi = a[ii, None, :], b[ii, None, :]
-        aj, bj = a[None], b[None]
-        o1, o2 = orient(ai, bi, aj), orient(ai, bi, bj)
-        o3, o4 = orient(aj, bj, ai), orient(aj, bj, bi)
-        hit = (o1 * o2 <= 0) & (o3 * o4 <= 0)
-        hit &= np.all((lo[ii, None] <= hi[None]) & (lo[None] <= hi[ii, None]), axis=-1)
-        # Only pairs j > i + 1, and not (first, last), which share a vertex.
-        hit &= jj[None, :] > ii[:, None] + 1
-        hit &= ~((ii[:, None] == 0) & (jj[None, :] == n - 1))
-        if tolerance > 0 and hit.any():
-            pi, pj = np.nonzero(hit)
-            depth = _crossing_depth(a[ii[pi]], b[ii[pi]], a[pj], b[pj])
-            hit[pi[depth <= tolerance], pj[depth <= tolerance]] = False
-        if hit.any():
-            row, j = (int(v) for v in np.argwhere(hit)[0])
-            i = int(ii[row])
-            vi, vj = int(idx[i]), int(idx[j])
-            pa, pb, pc, pd = a[i], b[i], a[j], b[j]
-            den = (pb[0] - pa[0]) * (pd[1] - pc[1]) - (pb[1] - pa[1]) * (pd[0] - pc[0])
-            if den != 0:
-                u = ((pc[0] - pa[0]) * (pd[1] - pc[1]) - (pc[1] - pa[1]) * (pd[0] - pc[0])) / den
-                px, py = pa + u * (pb - pa)
-            else:
-                px, py = pc
-            hint = (
-                " A computed border crosses itself where the radius of curvature is smaller than the "
-                "half-width: widen the corner or narrow the track there."
-                if what != "centre line"
-                else " The centre line must be a simple closed loop."
-            )
-            raise ValueError(
-                f"{where}: the {what} crosses itself near ({px:.4f}, {py:.4f}): the segment from vertex {vi} "
-                f"({pa[0]:.4f}, {pa[1]:.4f}) meets the segment from vertex {vj} ({pc[0]:.4f}, {pc[1]:.4f})."
-                f"{hint}"
-            )
-
-
-def _crossing_depth(a: FloatArray, b: FloatArray, c: FloatArray, d: FloatArray) -> FloatArray:
-    """Smallest distance from an endpoint of one segment to the other segment, for pairs of segments."""
-
-    def point_seg(p: FloatArray, s0: FloatArray, s1: FloatArray) -> FloatArray:
-        v = s1 - s0
-        den = np.maximum(np.sum(v * v, axis=-1), 1e-300)
-        t = np.minimum(np.maximum(np.sum((p - s0) * v, axis=-1) / den, 0.0), 1.0)
-        e = p - s0 - t[:, None] * v
-        return np.hypot(e[:, 0], e[:, 1])
-
-    return np.minimum.reduce([point_seg(a, c, d), point_seg(b, c, d), point_seg(c, a, b), point_seg(d, a, b)])
-
-
-@dataclass(frozen=True)
-class Projector:
-    """Lookup grid for :meth:`Track.project` (built once per track, lazily)."""
-
-    origin: FloatArray  # (2,) world position of the grid corner [m]
-    inv_cell: float  # 1 / cell size [1/m]
-    hi: FloatArray  # (2,) largest cell index per axis, as float for clamping
-    ny: int  # flat cell index = ix * ny + iy
-    start: IntArray  # (cells,) first row of the candidate window in ``tab``
-    cert: FloatArray  # (cells,) distance below which the window's answer is certified exact [m]
-    window: int  # 2K + 1 segments searched per query: rows start .. start + 2K of ``tab``
-    tab: npt.NDArray[np.complex128]  # (M + 2K, 5) segment table, wrapped by K rows each side
-    tab_full: npt.NDArray[np.complex128]  # (M, 5)
-    length: float
-
-    @staticmethod
-    def build(track: Track) -> Projector:
-        g = track._geo
-        c = track.centre
-        m = len(c)
-        seg = np.roll(c, -1, axis=0) - c
-        seg_len = g["seg_len"]
-        inv_l2 = np.divide(1.0, seg_len**2, out=np.zeros(m), where=seg_len > 0)
-        zc = c[:, 0] + 1j * c[:, 1]
-        dz = seg[:, 0] + 1j * seg[:, 1]
-        tz = g["seg_tangent"][:, 0] + 1j * g["seg_tangent"][:, 1]
-        full = np.stack([zc, dz, np.conj(dz) * inv_l2, np.conj(tz), g["vertex_s"] + 1j * seg_len], axis=1)
-
-        xmin, ymin, xmax, ymax = track.bounds
-        area = (xmax - xmin + 2 * GRID_MARGIN) * (ymax - ymin + 2 * GRID_MARGIN)
-        cell = max(GRID_CELL, math.sqrt(area / GRID_MAX_CELLS))
-        nx = int(math.ceil((xmax - xmin + 2 * GRID_MARGIN) / cell))
-        ny = int(math.ceil((ymax - ymin + 2 * GRID_MARGIN) / cell))
-        origin = np.array([xmin - GRID_MARGIN, ymin - GRID_MARGIN])
-
-        # Window of +-K segments covering at least `arc` of arc length each side of every segment.
-        arc = max(WINDOW_ARC, 4.0 * cell)
-        cum = np.concatenate([[0.0], np.cumsum(np.tile(seg_len, 3))])
-        # For every start segment i (in the middle copy), the number of segments needed to cover `arc`.
-        i_mid = np.arange(m, 2 * m)
-        ahead = np.searchsorted(cum, cum[i_mid + 1] + arc, side="left") - (i_mid + 1)
-        behind = i_mid - np.searchsorted(cum, cum[i_mid] - arc, side="right") + 1
-        k = int(min(max(ahead.max(), behind.max(), 1), m // 2))
-        ext = np.arange(-k, m + k) % m
-        tab = full[ext]
-        # Exact nearest segment of every cell centre, and the distance to the nearest segment OUTSIDE the
-        # window around it. A query q in the cell is within r = half-diagonal of the centre, so every
-        # outside segment is at least (outside distance - r) from q: if the window's best is below that,
-        # it is the true nearest.
-        gx = origin[0] + (np.arange(nx) + 0.5) * cell
-        gy = origin[1] + (np.arange(ny) + 0.5) * cell
-        centres = (gx[:, None] + 1j * gy[None, :]).ravel()
-        nearest = np.empty(len(centres), dtype=np.intp)
-        outside = np.empty(len(centres))
-        step = max(1, _GRID_CHUNK_ELEMENTS // m)
-        seg_ids = np.arange(m)
-        for a in range(0, len(centres), step):
-            zz = centres[a : a + step, None]
-            w = zz - zc[None, :]
-            t = np.clip((w * full[None, :, 2]).real, 0.0, 1.0)
-            dist = np.abs(w - t * dz[None, :])
-            near = dist.argmin(axis=1)
-            nearest[a : a + step] = near
-            offset = (seg_ids[None, :] - near[:, None]) % m
-            in_window = (offset <= k) | (offset >= m - k)
-            dist[in_window] = np.inf
-            outside[a : a + step] = dist.min(axis=1)
-        cert = outside - (cell * math.sqrt(0.5) + 1e-9)
-        edge = np.zeros((nx, ny), dtype=bool)
-        edge[[0, -1], :] = True
-        edge[:, [0, -1]] = True
-        # Points beyond the grid are clamped into edge cells, where the half-diagonal bound does not hold.
-        cert[edge.ravel()] = -1.0
-        return Projector(
-            origin=origin,
-            inv_cell=1.0 / cell,
-            hi=np.array([nx - 1, ny - 1], dtype=np.float64),
-            ny=ny,
-            start=nearest,
-            cert=cert,
-            window=2 * k + 1,
-            tab=tab,
-            tab_full=full,
-            length=g["length"],
-        )
-
-
-@njit(cache=True, inline="always")
-def _segment_distance2(z, tab, r):  # pragma: no cover
-    """Squared distance from complex point ``z`` to segment ``tab[r] = (A, D, conj(D)/|D|^2, ...)``.
-
-    Points and vectors are complex numbers ``x + iy``: for a segment ``A + tD`` the foot is at
-    ``t = clamp(Re((z - A) conj(D)) / |D|^2, 0, 1)``; a zero-length segment stores
-    ``conj(D)/|D|^2 = 0``, so ``t = 0`` and the distance is to ``A``.
-    """
-    w = z - tab[r, 0]
-    t = min(max((w * tab[r, 2]).real, 0.0), 1.0)
-    e = w - t * tab[r, 1]
-    return e.real * e.real + e.imag * e.imag, t, e
-
-
-@njit(cache=True)
-def project_kernel(q, mask, origin, inv_cell, hi, ny, start, cert, tab, window, tab_full, length,
-                   out_s, out_d):  # pragma: no cover
-    """Exact nearest point of the centre polyline for each point of ``q`` (P, 2).
-
-    The grid cell of a point gives a window of ``window`` candidate segments (rows
-    ``start[cell] ..`` of ``tab``); when the best distance in the window exceeds the cell's
-    certificate, the window might miss the nearest segment and every segment is searched.
-    Points where ``mask`` is False are skipped (s = d = 0); an empty mask selects all.
-    """
-    everything = mask.shape[0] == 0
-    for i in range(q.shape[0]):
-        if not everything and not mask[i]:
-            out_s[i] = 0.0
-            out_d[i] = 0.0
-            continue
-        x = q[i, 0]
-        y = q[i, 1]
-        z = complex(x, y)
-        ix = int(min(max((x - origin[0]) * inv_cell, 0.0), hi[0]))
-        iy = int(min(max((y - origin[1]) * inv_cell, 0.0), hi[1]))
-        cell = ix * ny + iy
-        first = start[cell]
-        best = np.inf
-        best_row = first
-        best_t = 0.0
-        best_e = 0j
-        for r in range(first, first + window):
-            dist2, t, e = _segment_distance2(z, tab, r)
-            if dist2 < best:
-                best, best_row, best_t, best_e = dist2, r, t, e
-        table = tab
-        limit = cert[cell]
-        if limit < 0.0 or best > limit * limit:
-            best = np.inf
-            table = tab_full
-            for r in range(tab_full.shape[0]):
-                dist2, t, e = _segment_distance2(z, tab_full, r)
-                if dist2 < best:
-                    best, best_row, best_t, best_e = dist2, r, t, e
-        s = table[best_row, 4].real + best_t * table[best_row, 4].imag
-        # s0 + t * len reaches ``length`` only at the very end of the closing segment.
-        out_s[i] = 0.0 if s >= length else s
-        out_d[i] = math.copysign(math.sqrt(best), (best_e * table[best_row, 3]).imag)
