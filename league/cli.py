@@ -135,7 +135,8 @@ def _cmd_tournament(args: argparse.Namespace) -> int:
 def _cmd_league_train(args: argparse.Namespace) -> int:
     import dataclasses
 
-    from h2h_racing.league.selfplay import League, LeagueConfig
+    from h2h_racing.league.config import LeagueConfig
+    from h2h_racing.league.selfplay import League
 
     _exit_on_sigterm()
     from h2h_racing.configs import resolve_config

@@ -258,7 +258,7 @@ def write(tmp_path, name: str, text: str):
 
 def test_league_toml_takes_one_track_name_as_a_list(tmp_path) -> None:
     # tuple("oval") made the league's tracks o, v, a, l ("Unknown track 'o'" later).
-    from h2h_racing.league.selfplay import LeagueConfig
+    from h2h_racing.league.config import LeagueConfig
 
     config = LeagueConfig.from_toml(write(tmp_path, "l.toml", 'tracks = "oval"\n'
                                                               'anchors = "racing_line"\n'))
@@ -267,7 +267,7 @@ def test_league_toml_takes_one_track_name_as_a_list(tmp_path) -> None:
 
 
 def test_league_toml_names_the_key_of_a_value_of_the_wrong_type(tmp_path) -> None:
-    from h2h_racing.league.selfplay import LeagueConfig
+    from h2h_racing.league.config import LeagueConfig
 
     path = write(tmp_path, "l.toml", 'eval_recent = "6"\n')
     with pytest.raises(ValueError) as err:

@@ -158,8 +158,9 @@ class TestLearnerStateRoundTrip:
     """``runner.pt`` as rsl-rl writes it loads weights-only into a fresh learner."""
 
     def test_saved_state_resumes(self, tmp_path: Path) -> None:
-        from h2h_racing.league import selfplay
-        from h2h_racing.league.selfplay import LeagueConfig, TrainJob, train_round
+        from h2h_racing.league import learners
+        from h2h_racing.league.config import LeagueConfig
+        from h2h_racing.league.learners import TrainJob, train_round
         from h2h_racing.training.policy_file import load_runner_state
 
         config = LeagueConfig(tracks=("oval",), anchors=("racing_line",), init=None,
@@ -170,11 +171,11 @@ class TestLearnerStateRoundTrip:
                        seed=0)
         try:
             train_round(job)
-            saved = selfplay._RUNNERS.pop("round_trip")[1]
+            saved = learners._RUNNERS.pop("round_trip")[1]
             train_round(dataclasses.replace(job, round=5))  # not cached: loads runner.pt
-            resumed = selfplay._RUNNERS["round_trip"][1]
+            resumed = learners._RUNNERS["round_trip"][1]
         finally:
-            selfplay._RUNNERS.pop("round_trip", None)
+            learners._RUNNERS.pop("round_trip", None)
         assert resumed is not saved
         # The saved state's iteration count, plus the one round trained after loading it.
         assert resumed.current_learning_iteration == saved.current_learning_iteration + 1
@@ -269,7 +270,7 @@ class TestLeagueNames:
     @pytest.mark.parametrize("name", ["../escape", "a/b", "..", ".hidden", "", "-x", "a b",
                                       "/abs"])
     def test_path_like_names_are_refused(self, name: str) -> None:
-        from h2h_racing.league.selfplay import LeagueConfig, LearnerSpec
+        from h2h_racing.league.config import LeagueConfig, LearnerSpec
 
         with pytest.raises(ValueError, match="LeagueConfig.name must be a plain name"):
             LeagueConfig(name=name)
@@ -277,7 +278,7 @@ class TestLeagueNames:
             LearnerSpec(name=name)
 
     def test_from_toml_and_plain_names(self, tmp_path: Path) -> None:
-        from h2h_racing.league.selfplay import LeagueConfig
+        from h2h_racing.league.config import LeagueConfig
 
         path = tmp_path / "bad.toml"
         path.write_text('name = "../../outside"\n')

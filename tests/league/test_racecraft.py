@@ -144,7 +144,8 @@ class TestRecords:
 
 
 def test_league_payoff_and_round_report_use_the_pairs(tmp_path: Path) -> None:
-    from h2h_racing.league.selfplay import League, LeagueConfig
+    from h2h_racing.league.config import LeagueConfig
+    from h2h_racing.league.selfplay import League
 
     out = io.StringIO()
     league = League(LeagueConfig.from_toml(LEAGUE_DIR / "smoke.toml"), tmp_path, out=out)

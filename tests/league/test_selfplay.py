@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from h2h_racing.league.selfplay import League, LeagueConfig, LearnerSpec
+from h2h_racing.league.config import LeagueConfig, LearnerSpec
+from h2h_racing.league.selfplay import League
 from h2h_racing.training.vec_env import PoolOpponent
 from h2h_racing.policies import make_driver, race_core
 
@@ -151,7 +152,7 @@ def test_max_std_reaches_the_learners(tmp_path):
 
 
 def test_imitation_term_reaches_the_learners():
-    from h2h_racing.league.selfplay import _make_env
+    from h2h_racing.league.learners import make_env
     from h2h_racing.training.vec_env import PoolOpponent
 
     config = LeagueConfig.from_toml(EXPERIMENTS_DIR / "guided.toml")
@@ -160,7 +161,7 @@ def test_imitation_term_reaches_the_learners():
     assert train_config.rsl_rl_dict()["algorithm"]["class_name"].endswith(":ImitationPPO")
     # The learners' envs give the racing line's actions as the expert group.
     small = dataclasses.replace(train_config, num_envs=2, track="oval")
-    env = _make_env(small, PoolOpponent(("blocker", "pure_pursuit")))
+    env = make_env(small, PoolOpponent(("blocker", "pure_pursuit")))
     assert env.get_observations()["expert"].shape == (2, 2)
     with pytest.raises(ValueError, match="imitation_coef needs an imitation_driver"):
         dataclasses.replace(config, imitation_driver=None)
@@ -171,8 +172,8 @@ def test_imitation_term_reaches_the_learners():
 
 
 def test_imitation_term_and_main_steps_fade_over_their_rounds(tmp_path):
-    from h2h_racing.league import selfplay
-    from h2h_racing.league.selfplay import TrainJob, train_round
+    from h2h_racing.league import learners
+    from h2h_racing.league.learners import TrainJob, train_round
 
     guided = LeagueConfig.from_toml(EXPERIMENTS_DIR / "guided.toml")  # imitation_coef = 2
     assert guided.imitation_coef_at(100) == 2.0  # no imitation_rounds: constant
@@ -199,7 +200,7 @@ def test_imitation_term_and_main_steps_fade_over_their_rounds(tmp_path):
                        round=2, track="oval", opponents=("pure_pursuit",) * smoke.num_envs,
                        reset=False, seed=0)
         train_round(job)
-        runner = selfplay._RUNNERS.pop("fading")[1]
+        runner = learners._RUNNERS.pop("fading")[1]
         assert runner.alg.imitation_coef == 1.0
         assert runner.alg.desired_kl == pytest.approx(kl)
 
@@ -242,8 +243,8 @@ def test_training_under_race_rules_runs():
 
 
 def test_tracks_per_round_splits_training_over_the_rotation(tmp_path):
-    from h2h_racing.league import selfplay
-    from h2h_racing.league.selfplay import TrainJob, train_round
+    from h2h_racing.league import learners
+    from h2h_racing.league.learners import TrainJob, train_round
 
     config = dataclasses.replace(LeagueConfig.from_toml(LEAGUE_DIR / "smoke.toml"),
                                  tracks=("oval", "kidney", "speedway"), iterations_per_round=3,
@@ -252,7 +253,7 @@ def test_tracks_per_round_splits_training_over_the_rotation(tmp_path):
                    round=1, track="speedway", opponents=("pure_pursuit",) * config.num_envs,
                    reset=False, seed=0)
     stats = train_round(job)
-    runner = selfplay._RUNNERS.pop("solo")[1]
+    runner = learners._RUNNERS.pop("solo")[1]
     # 3 iterations in 2 chunks (2 + 1): speedway, then the next track of the rotation, which
     # wraps round to oval; every iteration counted once.
     assert runner.env.track.name == "oval"
@@ -382,8 +383,8 @@ def test_a_run_finishing_on_best_hands_out_the_mains_best_record_state(tmp_path)
 def test_a_reload_rebuilds_the_learner_from_its_saved_state(tmp_path):
     import shutil
 
-    from h2h_racing.league import selfplay
-    from h2h_racing.league.selfplay import TrainJob, train_round
+    from h2h_racing.league import learners
+    from h2h_racing.league.learners import TrainJob, train_round
 
     config = dataclasses.replace(LeagueConfig.from_toml(LEAGUE_DIR / "smoke.toml"),
                                  iterations_per_round=2)
@@ -393,17 +394,17 @@ def test_a_reload_rebuilds_the_learner_from_its_saved_state(tmp_path):
                    seed=0)
     try:
         train_round(job)
-        first = selfplay._RUNNERS["kept"][1]
+        first = learners._RUNNERS["kept"][1]
         shutil.copyfile(folder / "runner.pt", tmp_path / "round0.pt")
         train_round(dataclasses.replace(job, round=1))
-        assert selfplay._RUNNERS["kept"][1] is first  # continued in memory
+        assert learners._RUNNERS["kept"][1] is first  # continued in memory
         after_two = first.current_learning_iteration
         shutil.copyfile(tmp_path / "round0.pt", folder / "runner.pt")  # as a restore does
         train_round(dataclasses.replace(job, round=2, reload=True))
-        runner = selfplay._RUNNERS["kept"][1]
+        runner = learners._RUNNERS["kept"][1]
         # Rebuilt from round 0's state, then one round: the iteration count of two rounds,
         # not three.
         assert runner is not first
         assert runner.current_learning_iteration == after_two
     finally:
-        selfplay._RUNNERS.pop("kept", None)
+        learners._RUNNERS.pop("kept", None)

@@ -1,0 +1,131 @@
+"""A learner's round of PPO, run in a worker process (``train_round``), and its saved state:
+``learners/<name>/latest.pt`` (policy file) and ``runner.pt`` (rsl-rl state), written
+atomically and copied as a whole (``copy_state``) when the league keeps or puts back a main
+agent's best state."""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import io
+import os
+import shutil
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from h2h_racing.league.config import LeagueConfig
+
+
+@dataclass(frozen=True)
+class TrainJob:
+    """One round of PPO for one learner (runs in a worker process)."""
+
+    learner: str
+    role: str
+    """The learner's role (``ROLES``)."""
+    folder: str
+    """The learner's folder: ``runner.pt`` (rsl-rl state) and ``latest.pt`` (policy file)."""
+    config: LeagueConfig
+    round: int
+    track: str
+    """The round's track (evaluation races; the first training chunk)."""
+    opponents: tuple[str, ...]
+    """Driver of the opponent car of each env copy (``make_driver`` names or policy paths)."""
+    reset: bool
+    """Start from the initial weights (an exploiter reset) instead of the saved state."""
+    seed: int
+    reload: bool = False
+    """Rebuild the learner from its saved state even if this worker holds it in memory (the
+    league has put an earlier state back: ``LeagueConfig.main_restore_margin``)."""
+
+
+_RUNNERS: dict[str, tuple[int, Any]] = {}
+"""Worker-process cache: learner -> (round it last finished, runner). A worker that trained a
+learner last round continues with its runner in memory; any other worker rebuilds it from the
+learner's ``runner.pt``. Module-level on purpose: it is the state of one worker process."""
+
+
+def train_round(job: TrainJob) -> dict[str, float]:
+    """Run one round of PPO for ``job.learner``; save its state; return round statistics."""
+    os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
+    # First: without torch, this import's error names the extra to install.
+    from h2h_racing.training.policy_file import load_init, load_runner_state, save_policy
+
+    import torch
+    from rsl_rl.runners import OnPolicyRunner
+
+    from h2h_racing.training.vec_env import PoolOpponent
+    from h2h_racing.track_io import load_track
+
+    torch.set_num_threads(1)
+    folder = Path(job.folder)
+    config = job.config.train_config(job.seed)
+    config = dataclasses.replace(config, track=job.track)
+    cached = _RUNNERS.get(job.learner)
+    opponent = PoolOpponent(job.opponents, seed=job.seed)
+    if (cached is not None and cached[0] == job.round - 1 and not job.reset
+            and not job.reload):
+        runner = cached[1]  # the training loop below moves it to the round's tracks
+        runner.env.set_opponent(opponent)
+    else:
+        torch.manual_seed(job.seed)
+        env = make_env(config, opponent)
+        with contextlib.redirect_stdout(io.StringIO()):  # rsl-rl prints the model summaries
+            runner = OnPolicyRunner(env, config.rsl_rl_dict(), log_dir=None, device="cpu")
+        state = folder / "runner.pt"
+        if state.is_file() and not job.reset:
+            load_runner_state(runner, state)  # weights-only, unlike rsl-rl's runner.load
+        elif job.config.init is not None:
+            load_init(runner, job.config.init)
+    if job.config.imitation_coef:
+        runner.alg.imitation_coef = job.config.imitation_coef_at(job.round)
+    runner.alg.desired_kl = job.config.desired_kl_at(job.round, job.role)
+    start = time.perf_counter()
+    tracks = job.config.tracks
+    first = tracks.index(job.track)
+    chunks = np.array_split(np.arange(job.config.iterations_per_round),
+                            job.config.tracks_per_round)
+    for k, chunk in enumerate(chunks):
+        track = load_track(tracks[(first + k) % len(tracks)])
+        if runner.env.track.name != track.name:
+            runner.env.set_track(track)
+        runner.learn(len(chunk))
+        runner.current_learning_iteration += 1  # rsl-rl's learn() reuses the last index (G3)
+    seconds = time.perf_counter() - start
+    folder.mkdir(parents=True, exist_ok=True)
+    atomic(lambda p: runner.save(str(p)), folder / "runner.pt")
+    atomic(lambda p: save_policy(runner, config, p), folder / "latest.pt")
+    _RUNNERS[job.learner] = (job.round, runner)
+    steps = job.config.iterations_per_round * config.num_envs * config.num_steps_per_env
+    return {"steps": float(steps), "seconds": seconds}
+
+
+def make_env(config: Any, opponent: Any) -> Any:
+    from h2h_racing.training.vec_env import RacingVecEnv
+
+    return RacingVecEnv(config.env_config(), num_envs=config.num_envs, learners=1,
+                        opponent=opponent, observations=config.observations, seed=config.seed,
+                        expert=config.expert())
+
+
+_STATE_FILES = ("latest.pt", "runner.pt")
+"""A learner's saved state: its policy checkpoint and its runner (optimiser, std bound)."""
+
+
+def copy_state(source: Path, target: Path) -> None:
+    """Copy a learner's saved state (``_STATE_FILES``) from folder ``source`` to ``target``,
+    each file atomically."""
+    target.mkdir(exist_ok=True)
+    for file in _STATE_FILES:
+        atomic(lambda p, f=file: shutil.copyfile(source / f, p), target / file)
+
+
+def atomic(write: Any, path: Path) -> None:
+    """Write via a temporary file and rename, so a killed process never leaves half a file."""
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    write(tmp)
+    os.replace(tmp, path)
