@@ -19,6 +19,10 @@ the user's own loop::
 or :class:`RecordingEnv` wraps the env and logs every ``reset`` and ``step`` itself.
 Open the file with ``rerun race.rrd``.
 
+The recorder's parts stand in their own modules, none of which imports rerun:
+:mod:`h2h_racing.viz_cars` (the per-car streams), :mod:`h2h_racing.viz_events` (the event
+lines) and :mod:`h2h_racing.viz_server` (the web viewer's server process and ports).
+
 What is recorded (entity paths):
 
 - ``/map/track/{left_border,right_border,centre,left_lane,right_lane,start_line}``: static
@@ -46,26 +50,23 @@ while a recorder is attached.
 
 from __future__ import annotations
 
-import os
 import shutil
-import signal
-import socket
 import subprocess
 import sys
 import time
-import urllib.parse
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Self
 
-import cv2
 import numpy as np
-import numpy.typing as npt
 
-from h2h_racing import rewards
 from h2h_racing.extras import install_hint, missing_extra
-from h2h_racing.lifeline import death_signal_preexec, started_from_main_thread
 from h2h_racing.render import car_colour
+# Re-exported here, where users and tests look for them: TRAJECTORY_PIECE, EVENT_KINDS and
+# check_ports_free.
+from h2h_racing.viz_cars import REWARD_TERMS, TRAJECTORY_PIECE, CarStreams, _box_corners
+from h2h_racing.viz_events import EVENT_KINDS, EVENT_LEVELS, step_event_lines
+from h2h_racing.viz_server import check_ports_free, start_viewer_server, stop_viewer_server
 
 if TYPE_CHECKING:
     from h2h_racing.core import StepEvents
@@ -75,23 +76,12 @@ INSTALL_HINT = install_hint("viz")
 """The command that installs the optional rerun dependency."""
 APPLICATION_ID = "h2h_racing"
 """Application id of every recording (recordings of one id share blueprints in the viewer)."""
-TRAJECTORY_PIECE = 128
-"""Points per trajectory piece entity."""
-EVENT_KINDS = ("start", "lap", "overtake", "collision", "off_track", "infraction", "penalty",
-               "reset", "finish", "retired", "results")
-"""Kinds of event lines in ``/events`` (the bracketed tag at the start of each line)."""
 METRICS = ("speed", "progress", "reward", "rank", "gap_to_leader")
 """Per-car scalars under ``/metrics/<name>/<agent>``."""
-REWARD_TERMS = rewards.TERMS
-"""Names of the reward terms (``infos[agent]["reward_<term>"]``), in logging order."""
 TRACK_COLOURS = {"left_border": (235, 235, 235), "right_border": (235, 235, 235),
                  "centre": (225, 190, 40), "left_lane": (120, 120, 130),
                  "right_lane": (120, 120, 130), "start_line": (230, 60, 60)}
 OBSTACLE_COLOUR = (160, 110, 60)
-BOT_COLOUR = (205, 205, 215)
-_LEVELS = {"start": "INFO", "lap": "INFO", "overtake": "INFO", "collision": "WARN",
-           "off_track": "WARN", "infraction": "WARN", "penalty": "WARN", "reset": "DEBUG",
-           "finish": "INFO", "retired": "WARN", "results": "INFO"}
 
 
 def import_rerun() -> Any:
@@ -130,67 +120,7 @@ def rerun_binary() -> str:
     return str(path)
 
 
-def _box_corners(centre: npt.NDArray[np.float64], yaw: npt.NDArray[np.float64],
-                 length: float, width: float) -> npt.NDArray[np.float64]:
-    """Closed outlines (..., 5, 2) of boxes with centres (..., 2) and headings (...)."""
-    c, s = np.cos(yaw)[..., None], np.sin(yaw)[..., None]
-    local = np.array([[0.5, 0.5], [0.5, -0.5], [-0.5, -0.5], [-0.5, 0.5], [0.5, 0.5]])
-    local = local * [length, width]
-    x = centre[..., None, 0] + c * local[:, 0] - s * local[:, 1]
-    y = centre[..., None, 1] + s * local[:, 0] + c * local[:, 1]
-    return np.stack([x, y], axis=-1)
-
-
-def check_ports_free(ports: dict[str, int], host: str = "127.0.0.1") -> None:
-    """Raise a clear error unless every port can be bound on ``host``.
-
-    The rerun server fails on a taken port only after it started, and a client connecting to
-    that port meanwhile reaches whatever holds it; a trial bind finds the clash up front.
-
-    Args:
-        ports: Argument name -> port (``{"web_port": 9090, "grpc_port": 9876}``).
-
-    Raises:
-        ValueError: A port out of range, two equal ports, or a port something else holds.
-    """
-    for name, port in ports.items():
-        if isinstance(port, bool) or not isinstance(port, int) or not 1 <= port <= 65535:
-            raise ValueError(f"{name} must be a port number in [1, 65535], got {port!r}")
-    if len(set(ports.values())) < len(ports):
-        raise ValueError(f"the viewer's ports must differ, got {ports}")
-    for name, port in ports.items():
-        probe = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        try:
-            if os.name == "posix":
-                # As servers do: a port whose last connection is in TIME_WAIT is free.
-                probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-            probe.bind((host, port))
-        except OSError as err:
-            flag = "--" + name.replace("_", "-")
-            raise ValueError(f"{name} {port} is already in use on {host} ({err.strerror}): "
-                             f"stop what holds it or choose another port ({name}= or "
-                             f"{flag})") from None
-        finally:
-            probe.close()
-
-
-def _wait_for_port(port: int, process: subprocess.Popen, timeout: float) -> None:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if process.poll() is not None:
-            raise RuntimeError(f"the rerun server exited with status {process.returncode} "
-                               f"before listening on 127.0.0.1:{port}; is the port taken? "
-                               f"Choose others with web_port= / grpc_port=")
-        try:
-            with socket.create_connection(("127.0.0.1", port), timeout=0.2):
-                return
-        except OSError:
-            time.sleep(0.05)
-    raise RuntimeError(f"the rerun server did not listen on 127.0.0.1:{port} within "
-                       f"{timeout:.0f} s")
-
-
-class RaceRecorder:
+class RaceRecorder(CarStreams):
     """Logs a ``RacingEnv`` race to rerun: a file, a native viewer or a local web viewer.
 
     Args:
@@ -280,38 +210,13 @@ class RaceRecorder:
 
     # ------------------------------------------------------------------ setup
     def _start_server(self, web_port: int, grpc_port: int) -> str:
-        check_ports_free({"web_port": web_port, "grpc_port": grpc_port})
-        command = [rerun_binary(), "--serve-web", "--bind", "127.0.0.1", "--port",
-                   str(grpc_port), "--web-viewer-port", str(web_port),
-                   "--server-memory-limit", "1GiB"]
-        # The server is a separate binary: a kill -9'd race would leave it holding the ports.
-        # On Linux the kernel ends it with us (the death signal belongs to the starting
-        # thread, so only the main thread arms it); elsewhere close() is the only stop.
-        preexec = death_signal_preexec() if started_from_main_thread() else None
-        self._server = subprocess.Popen(command, stdout=subprocess.DEVNULL,
-                                        stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL,
-                                        preexec_fn=preexec)
-        try:
-            _wait_for_port(grpc_port, self._server, timeout=20.0)
-            _wait_for_port(web_port, self._server, timeout=20.0)
-        except RuntimeError:
-            self._stop_server()
-            raise
-        grpc_url = f"rerun+http://127.0.0.1:{grpc_port}/proxy"
-        self.viewer_url = (f"http://127.0.0.1:{web_port}/?url="
-                           f"{urllib.parse.quote(grpc_url, safe='')}")
+        self._server, grpc_url, self.viewer_url = start_viewer_server(web_port, grpc_port,
+                                                                      rerun_binary)
         return grpc_url
 
     def _stop_server(self) -> None:
         server, self._server = self._server, None
-        if server is None or server.poll() is not None:
-            return
-        server.send_signal(signal.SIGINT if os.name == "posix" else signal.SIGTERM)
-        try:
-            server.wait(timeout=5.0)
-        except subprocess.TimeoutExpired:
-            server.kill()
-            server.wait(timeout=5.0)
+        stop_viewer_server(server)
 
     def _hook_core(self) -> None:
         core = self.env.core
@@ -404,7 +309,7 @@ class RaceRecorder:
         core_time = float(self.env.core.time[0])
         colour = car_colour(car) if car is not None else None
         self.rec.log("/events", self._rr.TextLog(f"[{kind}] t={core_time:.2f} s {text}",
-                                                 level=_LEVELS[kind], color=colour))
+                                                 level=EVENT_LEVELS[kind], color=colour))
 
     def log_reset(self, obs: dict[str, Any] | None = None,
                   infos: dict[str, dict[str, Any]] | None = None) -> None:
@@ -517,175 +422,12 @@ class RaceRecorder:
     # ------------------------------------------------------------------ parts
     def _log_events(self, infos: dict[str, dict[str, Any]], terminations: dict[str, bool],
                     truncations: dict[str, bool]) -> None:
-        ev = self._events
-        self._events = None
-        if ev is None:
+        events, self._events = self._events, None
+        if events is None:
             return
-        agents = self.agents
-        for _, passer, passed in ev.passes:
-            self._event("overtake", f"{agents[passer]} overtook {agents[passed]}", passer)
-        for _, fault, other, is_obstacle in ev.collisions:
-            if is_obstacle:
-                text = f"{agents[fault]} hit obstacle {other}"
-            else:
-                text = (f"{agents[fault]} hit {agents[other]} ({agents[fault]} was behind, "
-                        f"at fault)")
-            self._event("collision", text, fault)
-        penalty = self.env.config.bot_penalty
-        for _, car, bot, car_at_fault in ev.bot_contacts:
-            if car_at_fault:
-                text = f"{agents[car]} hit bot_car_{bot} from behind (at fault)"
-            else:
-                text = (f"bot_car_{bot} ran into {agents[car]} from behind: every bot pauses "
-                        f"{penalty:g} s")
-            self._event("collision", text, car)
-        n = len(agents)
-        flags = {name: getattr(ev, name)[0].tolist()
-                 for name in ("off_track", "reversed", "immobilised", "penalised", "replaced",
-                              "lap_completed", "finished", "terminated")}
-        core = self.env.core
-        for i in range(n):
-            agent = agents[i]
-            if flags["off_track"][i]:
-                self._event("off_track", f"{agent} went off track", i)
-            if flags["reversed"][i]:
-                self._event("infraction", f"{agent} drove the wrong way", i)
-            if flags["immobilised"][i]:
-                self._event("infraction", f"{agent} is immobilised", i)
-            if flags["penalised"][i]:
-                self._event("penalty", f"{agent} penalised ({int(core.penalties[0, i])} so far, "
-                                       f"{float(core.penalty_time[0, i]):.1f} s in all)", i)
-            if flags["replaced"][i]:
-                self._event("reset", f"{agent} put back on track", i)
-            if flags["lap_completed"][i]:
-                self._event("lap", f"{agent} completed lap {int(core.laps[0, i])} in "
-                                   f"{float(core.last_lap_time[0, i]):.2f} s", i)
-            if flags["finished"][i]:
-                self._event("finish", f"{agent} finished P{int(core.rank[0, i])} in "
-                                      f"{float(core.finish_time[0, i]):.2f} s", i)
-            elif flags["terminated"][i]:
-                self._event("retired", f"{agent} retired", i)
-        stopped = [a for a, t in truncations.items() if t]
-        if stopped:
-            self._event("retired", f"time limit: {', '.join(stopped)} stopped")
-
-    def _log_cars(self, obs: dict[str, Any], actions: dict[str, Any],
-                  infos: dict[str, dict[str, Any]],
-                  rewards: dict[str, float] | None = None) -> None:
-        rr, rec, core = self._rr, self.rec, self.env.core
-        strips = rr.LineStrips2D.from_fields
-        cfg = core.config
-        if core.num_bots:
-            outlines = _box_corners(core.bot_position[0], core.bot_yaw[0], cfg.car.length,
-                                    cfg.car.width)
-            ticks = np.stack([0.5 * (outlines[:, 0] + outlines[:, 1]), core.bot_position[0]],
-                             axis=1)
-            rec.log("/map/bots", rr.LineStrips2D(list(outlines) + list(ticks), radii=0.015,
-                                                 colors=BOT_COLOUR, draw_order=4.0))
-        live = [i for i, a in enumerate(self.agents) if a in infos or not infos]
-        boxes = _box_corners(core.position[0], core.yaw[0], cfg.car.length, cfg.car.width)
-        position = core.position[0].tolist()
-        frames = None
-        if (self.cameras and self._own_camera is not None and live
-                and self._step % self.camera_every == 0):
-            frames = self._own_camera.render_frames(core)[0]
-        ranges = None
-        if self._own_lidar is not None:
-            ranges = np.minimum(self._own_lidar.ranges(core)[0], cfg.lidar.max_range)
-        parked = core.done[0].tolist()
-        for i in live:
-            agent = self.agents[i]
-            colour = car_colour(i)
-            base = f"/map/cars/{agent}"
-            if parked[i]:
-                # A finished or retired car is parked off the track: log its numbers only.
-                self._log_numbers(i, agent, actions, infos, rewards)
-                continue
-            rec.log(f"{base}/box", strips(strips=[boxes[i], [0.5 * (boxes[i, 0] + boxes[i, 1]),
-                                                           position[i]]]))
-            self._log_trajectory(agent, position[i], colour)
-            agent_obs = obs.get(agent)
-            if self.cameras and self._step % self.camera_every == 0:
-                image = None
-                if frames is not None:
-                    image = np.hstack(list(frames[i]))
-                elif isinstance(agent_obs, dict) and "camera" in agent_obs:
-                    stack = agent_obs["camera"]
-                    cams = cfg.camera.cameras
-                    image = np.hstack([stack[..., c] for c in
-                                       range(stack.shape[-1] - cams, stack.shape[-1])])
-                if image is not None:
-                    self._log_image(f"/cars/{agent}/camera", image)
-            if self.lidar:
-                scan = None
-                if ranges is not None:
-                    scan = ranges[i]
-                elif (isinstance(agent_obs, dict) and "lidar" in agent_obs
-                      and cfg.lidar.mode == "lidar"):
-                    scan = np.asarray(agent_obs["lidar"], dtype=np.float64)
-                if scan is not None:
-                    self._log_lidar(base, i, scan)
-            self._log_numbers(i, agent, actions, infos, rewards)
-
-    def _log_numbers(self, i: int, agent: str, actions: dict[str, Any],
-                     infos: dict[str, dict[str, Any]], rewards: dict[str, float] | None,
-                     ) -> None:
-        rr, rec, core = self._rr, self.rec, self.env.core
-        info = infos.get(agent)
-        if info is not None:
-            values = {"speed": float(core.speed[0, i]), "progress": info["progress"],
-                      "rank": info["rank"], "gap_to_leader": info["gap_to_leader"]}
-            if rewards is not None and agent in rewards:
-                values["reward"] = rewards[agent]
-                rec.log(f"/cars/{agent}/reward_terms",
-                        rr.Scalars([info[f"reward_{t}"] for t in REWARD_TERMS]))
-            for name, value in values.items():
-                rec.log(f"/metrics/{name}/{agent}", rr.Scalars(float(value)))
-        action = actions.get(agent)
-        if action is not None:
-            action = np.asarray(action, dtype=np.float64)
-            if action.ndim == 0:
-                rec.log(f"/cars/{agent}/action", rr.AnyValues(discrete_action=int(action)))
-            else:
-                rec.log(f"/cars/{agent}/action", rr.Scalars(action.ravel()))
-
-    def _log_trajectory(self, agent: str, point: list[float], colour: tuple[int, int, int],
-                        ) -> None:
-        trail = self._trail[agent]
-        trail.append(point)
-        fresh = len(trail) == 1
-        if len(trail) > TRAJECTORY_PIECE:
-            # Start a new piece that begins where the last one ended.
-            self._piece[agent] += 1
-            del trail[:-2]
-            fresh = True
-        entity = f"/map/cars/{agent}/trajectory/{self._piece[agent]}"
-        if fresh:
-            self.rec.log(entity, self._rr.LineStrips2D.from_fields(
-                radii=0.012, colors=colour, draw_order=5.0), static=True)
-        self.rec.log(entity, self._rr.LineStrips2D.from_fields(strips=[trail]))
-
-    def _log_image(self, entity: str, image: npt.NDArray[np.uint8]) -> None:
-        ok, jpeg = cv2.imencode(".jpg", np.ascontiguousarray(image),
-                                [cv2.IMWRITE_JPEG_QUALITY, self.jpeg_quality])
-        if not ok:
-            raise RuntimeError(f"OpenCV could not JPEG-encode a {image.shape} camera image")
-        self.rec.log(entity, self._rr.EncodedImage(contents=jpeg.tobytes(),
-                                                   media_type="image/jpeg"))
-
-    def _log_lidar(self, base: str, car: int, scan: npt.NDArray[np.float64]) -> None:
-        core = self.env.core
-        yaw = float(core.yaw[0, car])
-        c, s = np.cos(yaw), np.sin(yaw)
-        mount = self._lidar_mount
-        origin = core.position[0, car] + np.array([c * mount[0] - s * mount[1],
-                                                   s * mount[0] + c * mount[1]])
-        angles = yaw + self._lidar_angles
-        ends = origin + scan[:, None] * np.stack([np.cos(angles), np.sin(angles)], axis=1)
-        strips = np.stack([np.broadcast_to(origin, ends.shape), ends], axis=1)
-        hits = ends[scan < self.env.config.lidar.max_range - 1e-6]
-        self.rec.log(f"{base}/lidar/beams", self._rr.LineStrips2D.from_fields(strips=strips))
-        self.rec.log(f"{base}/lidar/hits", self._rr.Points2D.from_fields(positions=hits))
+        for kind, text, car in step_event_lines(events, self.agents, self.env.core,
+                                                self.env.config.bot_penalty, truncations):
+            self._event(kind, text, car)
 
 
 class RecordingEnv:
