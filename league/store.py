@@ -27,107 +27,43 @@ Schema (version 1):
 - ``ratings``: rating history: ``computed`` (unix seconds), ``method`` (``bradley_terry`` or
   ``elo``), ``player``, ``rating``, ``low``/``high`` (confidence interval, NULL for Elo),
   ``training_steps`` (league clock the rating belongs to), ``matches`` (matches it used).
+
+The schema and the checks made on opening a file live in :mod:`h2h_racing.league.store_schema`,
+the players in :mod:`h2h_racing.league.players`.
 """
 
 from __future__ import annotations
 
-import hashlib
 import math
 import re
 import sqlite3
 import time
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-SCHEMA_VERSION = 1
-"""Version of the schema this module writes; files of a newer version are refused."""
+# Player, player_for, file_sha256, SCHEMA_VERSION and LeagueStoreError are re-exported here,
+# where the league's users import them from.
+from h2h_racing.league.players import (
+    PLAYER_KINDS,
+    Player,
+    checkpoint_of,
+    ensure_players,
+    file_sha256,
+    player_for,
+)
+from h2h_racing.league.store_schema import (
+    SCHEMA_VERSION,
+    LeagueStoreError,
+    check_league_file,
+    check_not_empty,
+    create_schema,
+)
 
-PLAYER_KINDS = ("scripted", "policy", "snapshot", "learner")
-"""Allowed ``Player.kind`` values."""
 MATCH_STATUSES = ("done", "failed")
 """Allowed match statuses; only ``done`` matches enter ratings and payoffs."""
-
-_SCHEMA = """
-CREATE TABLE IF NOT EXISTS meta (
-    key TEXT PRIMARY KEY,
-    value TEXT NOT NULL
-);
-CREATE TABLE IF NOT EXISTS players (
-    name TEXT PRIMARY KEY,
-    kind TEXT NOT NULL CHECK (kind IN ('scripted', 'policy', 'snapshot', 'learner')),
-    role TEXT,
-    checkpoint TEXT,
-    checkpoint_sha256 TEXT,
-    parent TEXT REFERENCES players(name),
-    created REAL NOT NULL,
-    training_steps INTEGER NOT NULL DEFAULT 0 CHECK (training_steps >= 0)
-);
-CREATE TABLE IF NOT EXISTS matches (
-    id INTEGER PRIMARY KEY,
-    key TEXT NOT NULL UNIQUE,
-    context TEXT NOT NULL,
-    track TEXT NOT NULL,
-    race_type TEXT NOT NULL,
-    laps INTEGER NOT NULL,
-    seed INTEGER NOT NULL,
-    start REAL,
-    steps INTEGER NOT NULL DEFAULT 0,
-    status TEXT NOT NULL CHECK (status IN ('done', 'failed')),
-    error TEXT,
-    created REAL NOT NULL
-);
-CREATE TABLE IF NOT EXISTS match_cars (
-    match_id INTEGER NOT NULL REFERENCES matches(id) ON DELETE CASCADE,
-    seat INTEGER NOT NULL,
-    grid_slot INTEGER,
-    player TEXT NOT NULL REFERENCES players(name),
-    position INTEGER NOT NULL CHECK (position >= 1),
-    finished INTEGER NOT NULL,
-    laps INTEGER NOT NULL,
-    total_time REAL,
-    best_lap REAL,
-    collisions INTEGER NOT NULL,
-    crashes INTEGER NOT NULL,
-    overtakes INTEGER NOT NULL,
-    penalties INTEGER NOT NULL,
-    penalty_time REAL NOT NULL,
-    off_tracks INTEGER NOT NULL,
-    PRIMARY KEY (match_id, seat)
-);
-CREATE INDEX IF NOT EXISTS match_cars_player ON match_cars(player);
-CREATE TABLE IF NOT EXISTS ratings (
-    id INTEGER PRIMARY KEY,
-    computed REAL NOT NULL,
-    method TEXT NOT NULL,
-    player TEXT NOT NULL REFERENCES players(name),
-    rating REAL NOT NULL,
-    low REAL,
-    high REAL,
-    training_steps INTEGER NOT NULL DEFAULT 0,
-    matches INTEGER NOT NULL DEFAULT 0
-);
-"""
-
-
-class LeagueStoreError(RuntimeError):
-    """The league file cannot be used (newer schema, not a league, conflicting data)."""
-
-
-@dataclass(frozen=True)
-class Player:
-    """A league player (see the module docstring for the fields)."""
-
-    name: str
-    kind: str
-    role: str | None = None
-    checkpoint: str | None = None
-    checkpoint_sha256: str | None = None
-    parent: str | None = None
-    created: float = 0.0
-    training_steps: int = 0
 
 
 @dataclass(frozen=True)
@@ -181,15 +117,6 @@ class MatchRecord:
         return {car.player: float(car.position) for car in self.cars}
 
 
-def file_sha256(path: str | Path) -> str:
-    """SHA-256 of a file's bytes (hex)."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
 def _finite_or_none(value: float) -> float | None:
     return float(value) if math.isfinite(value) else None
 
@@ -216,7 +143,7 @@ class LeagueStore:
 
     def __init__(self, path: str | Path, name: str | None = None) -> None:
         self.path = Path(path)
-        _check_not_empty(self.path)
+        check_not_empty(self.path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         # isolation_level=None: we issue BEGIN/COMMIT ourselves, so every write is exactly
         # one transaction. timeout: wait for another process's write lock instead of failing.
@@ -233,45 +160,13 @@ class LeagueStore:
             raise
 
     def _open(self, name: str | None) -> None:
-        try:
-            tables = {row[0] for row in self._db.execute(
-                "SELECT name FROM sqlite_master WHERE type = 'table'")}
-            # A damaged page may lie anywhere: find it now, not after hours of racing into the
-            # file (about 0.7 s for 200,000 matches).
-            damage = self._db.execute("PRAGMA quick_check(1)").fetchone()[0] if tables else "ok"
-        except sqlite3.DatabaseError as err:
-            raise LeagueStoreError(f"{self.path} is not a league file, or a damaged one (SQLite "
-                                   f"says: {err})") from None
-        if damage != "ok":
-            damage = " ".join(damage.split())
-            raise LeagueStoreError(f"{self.path} is damaged (SQLite's quick_check: {damage}); "
-                                   f"restore it from a copy, or give another path")
-        if tables and "meta" not in tables:
-            raise LeagueStoreError(
-                f"{self.path} is an SQLite file but not a league (no 'meta' table; tables: "
-                f"{sorted(tables)}); give a new path or a league file")
-        if "meta" in tables:
-            row = self._db.execute(
-                "SELECT value FROM meta WHERE key = 'schema_version'").fetchone()
-            version = int(row[0]) if row is not None else 0
-            if version > SCHEMA_VERSION:
-                raise LeagueStoreError(
-                    f"{self.path} was written with league schema version {version}, but this "
-                    f"h2h-racing reads versions up to {SCHEMA_VERSION}; upgrade h2h-racing to "
-                    f"open it")
+        check_league_file(self._db, self.path)
         self._db.execute("PRAGMA journal_mode = WAL")
         # FULL: a committed match survives even a power cut, not only a killed process.
         self._db.execute("PRAGMA synchronous = FULL")
         self._db.execute("PRAGMA foreign_keys = ON")
         with self.transaction() as db:
-            for statement in _SCHEMA.split(";"):
-                if statement.strip():
-                    db.execute(statement)
-            db.execute("INSERT OR IGNORE INTO meta VALUES ('schema_version', ?)",
-                       (str(SCHEMA_VERSION),))
-            db.execute("INSERT OR IGNORE INTO meta VALUES ('created', ?)", (str(time.time()),))
-            db.execute("INSERT OR IGNORE INTO meta VALUES ('name', ?)",
-                       (name or self.path.stem,))
+            create_schema(db, name or self.path.stem)
 
     def close(self) -> None:
         """Close the file."""
@@ -495,59 +390,3 @@ def canonical_key(key: str) -> tuple[tuple[tuple[int, int | str], ...], str]:
     parts = tuple((0, int(part)) if part.isdigit() else (1, part)
                   for part in re.split(r"(\d+)", key) if part)
     return parts, key
-
-
-def _check_not_empty(path: Path) -> None:
-    """Refuse a 0-byte file: only a path that does not exist starts a new league.
-
-    SQLite would take an empty file for a new database, so a league file emptied by accident
-    (a failed copy, ``> file``) would silently become a new, empty league. A new league's file
-    is never empty for long: creating it writes its schema at once (the SQLite header, or a
-    ``-wal`` file beside it while it is open).
-    """
-    if not path.is_file() or path.stat().st_size > 0:
-        return
-    wal = path.with_name(path.name + "-wal")
-    if wal.is_file() and wal.stat().st_size > 0:
-        return
-    raise LeagueStoreError(f"{path} is empty (0 bytes), not a league file; delete it to start "
-                           f"a new league there, or give another path")
-
-
-def ensure_players(store: LeagueStore, players: Iterable[Player]) -> None:
-    """Add every player that is not in the league yet."""
-    for player in players:
-        store.add_player(player)
-
-
-def player_for(name: str) -> Player:
-    """A ``Player`` for a driver given as on the command line: a scripted or shipped driver
-    name, or a ``policy.pt`` path (hashed, so a changed file is caught)."""
-    from h2h_racing.policies import DRIVERS
-    from h2h_racing.policies.trained import shipped_policies
-
-    if name in DRIVERS:
-        return Player(name=name, kind="scripted", role="anchor", checkpoint=name)
-    shipped = shipped_policies()
-    if name in shipped:
-        return Player(name=name, kind="policy", checkpoint=str(shipped[name]),
-                      checkpoint_sha256=file_sha256(shipped[name]))
-    path = Path(name)
-    if path.suffix == ".pt" and path.is_file():
-        return Player(name=_policy_name(path), kind="policy", checkpoint=str(path),
-                      checkpoint_sha256=file_sha256(path))
-    raise ValueError(f"unknown player {name!r}: give a driver name ({', '.join(sorted(DRIVERS))}),"
-                     f" a shipped policy ({', '.join(sorted(shipped))}) or a policy.pt file")
-
-
-def _policy_name(path: Path) -> str:
-    """``runs/abc/policy.pt`` -> ``abc``; ``x/best.pt`` -> ``best``."""
-    return path.parent.name if path.stem == "policy" and path.parent.name else path.stem
-
-
-def checkpoint_of(players: Sequence[Player], name: str) -> str:
-    """What ``make_driver`` needs to build ``name``: its driver name or checkpoint path."""
-    for player in players:
-        if player.name == name:
-            return player.checkpoint or player.name
-    raise KeyError(name)

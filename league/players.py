@@ -1,0 +1,77 @@
+"""League players: the record, and the player a driver named on the command line becomes."""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from h2h_racing.league.store import LeagueStore
+
+PLAYER_KINDS = ("scripted", "policy", "snapshot", "learner")
+"""Allowed ``Player.kind`` values."""
+
+
+@dataclass(frozen=True)
+class Player:
+    """A league player (see the module docstring for the fields)."""
+
+    name: str
+    kind: str
+    role: str | None = None
+    checkpoint: str | None = None
+    checkpoint_sha256: str | None = None
+    parent: str | None = None
+    created: float = 0.0
+    training_steps: int = 0
+
+
+def file_sha256(path: str | Path) -> str:
+    """SHA-256 of a file's bytes (hex)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def ensure_players(store: LeagueStore, players: Iterable[Player]) -> None:
+    """Add every player that is not in the league yet."""
+    for player in players:
+        store.add_player(player)
+
+
+def player_for(name: str) -> Player:
+    """A ``Player`` for a driver given as on the command line: a scripted or shipped driver
+    name, or a ``policy.pt`` path (hashed, so a changed file is caught)."""
+    from h2h_racing.policies import DRIVERS
+    from h2h_racing.policies.trained import shipped_policies
+
+    if name in DRIVERS:
+        return Player(name=name, kind="scripted", role="anchor", checkpoint=name)
+    shipped = shipped_policies()
+    if name in shipped:
+        return Player(name=name, kind="policy", checkpoint=str(shipped[name]),
+                      checkpoint_sha256=file_sha256(shipped[name]))
+    path = Path(name)
+    if path.suffix == ".pt" and path.is_file():
+        return Player(name=_policy_name(path), kind="policy", checkpoint=str(path),
+                      checkpoint_sha256=file_sha256(path))
+    raise ValueError(f"unknown player {name!r}: give a driver name ({', '.join(sorted(DRIVERS))}),"
+                     f" a shipped policy ({', '.join(sorted(shipped))}) or a policy.pt file")
+
+
+def _policy_name(path: Path) -> str:
+    """``runs/abc/policy.pt`` -> ``abc``; ``x/best.pt`` -> ``best``."""
+    return path.parent.name if path.stem == "policy" and path.parent.name else path.stem
+
+
+def checkpoint_of(players: Sequence[Player], name: str) -> str:
+    """What ``make_driver`` needs to build ``name``: its driver name or checkpoint path."""
+    for player in players:
+        if player.name == name:
+            return player.checkpoint or player.name
+    raise KeyError(name)
