@@ -15,8 +15,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from h2h_racing.league.config import LeagueConfig
 
 
@@ -32,7 +30,7 @@ class TrainJob:
     config: LeagueConfig
     round: int
     track: str
-    """The round's track (evaluation races; the first training chunk)."""
+    """The round's track (training and evaluation races)."""
     opponents: tuple[str, ...]
     """Driver of the opponent car of each env copy (``make_driver`` names or policy paths)."""
     reset: bool
@@ -40,7 +38,7 @@ class TrainJob:
     seed: int
     reload: bool = False
     """Rebuild the learner from its saved state even if this worker holds it in memory (the
-    league has put an earlier state back: ``LeagueConfig.main_restore_margin``)."""
+    league has put an earlier state back: ``[main_restore] margin``)."""
 
 
 _RUNNERS: dict[str, tuple[int, Any]] = {}
@@ -69,7 +67,7 @@ def train_round(job: TrainJob) -> dict[str, float]:
     opponent = PoolOpponent(job.opponents, seed=job.seed)
     if (cached is not None and cached[0] == job.round - 1 and not job.reset
             and not job.reload):
-        runner = cached[1]  # the training loop below moves it to the round's tracks
+        runner = cached[1]  # moved to the round's track below
         runner.env.set_opponent(opponent)
     else:
         torch.manual_seed(job.seed)
@@ -81,26 +79,19 @@ def train_round(job: TrainJob) -> dict[str, float]:
             load_runner_state(runner, state)  # weights-only, unlike rsl-rl's runner.load
         elif job.config.init is not None:
             load_init(runner, job.config.init)
-    if job.config.imitation_coef:
-        runner.alg.imitation_coef = job.config.imitation_coef_at(job.round)
-    runner.alg.desired_kl = job.config.desired_kl_at(job.round, job.role)
     start = time.perf_counter()
-    tracks = job.config.tracks
-    first = tracks.index(job.track)
-    chunks = np.array_split(np.arange(job.config.iterations_per_round),
-                            job.config.tracks_per_round)
-    for k, chunk in enumerate(chunks):
-        track = load_track(tracks[(first + k) % len(tracks)])
-        if runner.env.track.name != track.name:
-            runner.env.set_track(track)
-        runner.learn(len(chunk))
-        runner.current_learning_iteration += 1  # rsl-rl's learn() reuses the last index (G3)
+    track = load_track(job.track)
+    if runner.env.track.name != track.name:
+        runner.env.set_track(track)
+    iterations = job.config.training.iterations_per_round
+    runner.learn(iterations)
+    runner.current_learning_iteration += 1  # rsl-rl's learn() reuses the last index (G3)
     seconds = time.perf_counter() - start
     folder.mkdir(parents=True, exist_ok=True)
     atomic(lambda p: runner.save(str(p)), folder / "runner.pt")
     atomic(lambda p: save_policy(runner, config, p), folder / "latest.pt")
     _RUNNERS[job.learner] = (job.round, runner)
-    steps = job.config.iterations_per_round * config.num_envs * config.num_steps_per_env
+    steps = iterations * config.num_envs * config.num_steps_per_env
     return {"steps": float(steps), "seconds": seconds}
 
 

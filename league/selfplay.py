@@ -8,18 +8,19 @@ its own batched ``RacingVecEnv`` with one learner car and one opponent car per e
    (``league.pfsp.choose_opponents``: prioritised fictitious self-play over the decayed payoff
    table, pure self-play against the learner's own frozen copy of the round's start, the
    current main). Scripted drivers stay in the pool as fixed anchors.
-2. **Training**: every learner runs ``iterations_per_round`` PPO iterations (in parallel on
-   the backend's workers) and saves ``learners/<name>/latest.pt`` and its runner state.
+2. **Training**: every learner runs ``[training] iterations_per_round`` PPO iterations on the
+   round's track (in parallel on the backend's workers) and saves
+   ``learners/<name>/latest.pt`` and its runner state.
 3. **Evaluation**: each learner races every pool member (and the other learners) in 2-car races
    under race rules, both seat orders on the same seeds; every race is a stored match, and
    each pair of seat orders (legs) updates the payoff table as one result that the grid does
    not decide (``league.racecraft``: a player that won both legs wins, a split goes to the
-   lower aggregate time). With ``main_restore_margin`` set, a main agent whose record
+   lower aggregate time). With ``[main_restore] margin`` set, a main agent whose record
    against the anchors falls that far below its best gets its best state back (the exploit
    step of population-based training, the main's own past as the population); with
-   ``main_finish_on_best`` the run also ends with each main at its best-record state.
+   ``finish_on_best`` the run also ends with each main at its best-record state.
 4. **Snapshots**: a learner whose worst decayed win rate against the pool exceeds the
-   threshold after ``snapshot_min_rounds`` rounds (forced after ``snapshot_max_rounds``) is
+   ``[snapshots] threshold`` after ``min_rounds`` rounds (forced after ``max_rounds``) is
    frozen into a new player; the main exploiter then restarts from the initial weights, a
    league exploiter does so with probability 0.25 (AlphaStar's rules).
 5. **Ratings**: each new snapshot plays placement races against every frozen player (anchors
@@ -117,21 +118,21 @@ class League:
 
     def _opponents(self, spec: LearnerSpec, pool: list[Any], mains: list[str],
                    payoff: Any) -> list[str]:
-        """The opponent of each env copy of ``spec``: ``anchor_share`` of the copies against
-        an anchor drawn by ``anchor_weighting``, the rest by the role's matchmaking rule, in
-        random order."""
+        """The opponent of each env copy of ``spec``: ``[matchmaking] anchor_share`` of the
+        copies against an anchor drawn by ``anchor_weighting``, the rest by the role's
+        matchmaking rule, in random order."""
         from h2h_racing.league.pfsp import choose_opponents, pfsp_weights
 
         cfg = self.config
-        fixed = int(round(cfg.anchor_share * cfg.num_envs))
+        fixed = int(round(cfg.matchmaking.anchor_share * cfg.training.num_envs))
         weights = None
-        if cfg.anchor_weighting != "uniform":
+        if cfg.matchmaking.anchor_weighting != "uniform":
             weights = pfsp_weights(payoff.win_rates(spec.name, list(cfg.anchors)),
-                                   cfg.anchor_weighting)
+                                   cfg.matchmaking.anchor_weighting)
         names = [str(name) for name in self.rng.choice(list(cfg.anchors), size=fixed,
                                                        p=weights)]
         names += choose_opponents(self.rng, spec.name, spec.role, pool, mains, payoff,
-                                  cfg.num_envs - fixed)
+                                  cfg.training.num_envs - fixed)
         return [names[i] for i in self.rng.permutation(len(names))]
 
     def _pool(self) -> list[Any]:
@@ -153,7 +154,7 @@ class League:
     def _payoff(self) -> Any:
         from h2h_racing.league.pfsp import Payoff
 
-        return Payoff.from_races(self._paired("eval"), decay=self.config.payoff_decay)
+        return Payoff.from_races(self._paired("eval"), decay=self.config.matchmaking.payoff_decay)
 
     def _paired(self, kind: str) -> list[dict[str, float]]:
         """Results of the stored ``kind`` races, both legs of a start point (one from each
@@ -179,7 +180,7 @@ class League:
             self._show(round_index, elapsed)
             if elapsed >= self.config.minutes:
                 break
-        if self.config.main_finish_on_best:
+        if self.config.main_restore.finish_on_best:
             for spec in self.config.learners:
                 if spec.role == "main":
                     self._finish_on_best(spec.name)
@@ -219,7 +220,7 @@ class League:
         clock = time.perf_counter()
         self._evaluate(round_index, track)
         self.timings["evaluate"] = time.perf_counter() - clock
-        if cfg.main_restore_margin is not None:
+        if cfg.main_restore.margin is not None:
             for name in mains:
                 self._keep_best(name, round_index)
         clock = time.perf_counter()
@@ -229,9 +230,9 @@ class League:
             # whole pool.
             judged = mains if spec.role == "main_exploiter" else [p.name for p in pool]
             since = int(self._learner_meta(spec.name, "rounds_since_snapshot"))
-            if should_snapshot(since >= cfg.snapshot_min_rounds,
-                               since >= cfg.snapshot_max_rounds,
-                               payoff.win_rates(spec.name, judged), cfg.snapshot_threshold):
+            if should_snapshot(since >= cfg.snapshots.min_rounds,
+                               since >= cfg.snapshots.max_rounds,
+                               payoff.win_rates(spec.name, judged), cfg.snapshots.threshold):
                 self._snapshot(spec, reset=resets_on_snapshot(self.rng, spec.role))
         self._place()
         self.timings["place"] = time.perf_counter() - clock
@@ -254,7 +255,7 @@ class League:
         # Evaluation races start at new points every round; placement races at fixed ones.
         seed = self.config.seed + (0 if round_index is None else 7919 * (round_index + 1))
         jobs = [make_job(track, (a, b), {a: self._opponent_spec(a), b: self._opponent_spec(b)},
-                         PAIR_ORDERS, range(races), prefix, done, laps=self.config.laps,
+                         PAIR_ORDERS, range(races), prefix, done, laps=self.config.races.laps,
                          seed=seed, context=context) for a, b in pairs]
         return [job for job in jobs if job is not None]
 
@@ -263,19 +264,20 @@ class League:
         learners."""
         cfg = self.config
         snapshots = [s.name for s in self.snapshots()]
-        opponents = list(cfg.anchors) + (snapshots[-cfg.eval_recent:] if cfg.eval_recent else [])
+        recent = cfg.races.eval_recent
+        opponents = list(cfg.anchors) + (snapshots[-recent:] if recent else [])
         learners = [s.name for s in cfg.learners]
         pairs = [(learner, other) for learner in learners for other in opponents]
         pairs += [(a, b) for i, a in enumerate(learners) for b in learners[i + 1:]]
-        self._play(self._jobs("eval", round_index, pairs, track, cfg.eval_races))
+        self._play(self._jobs("eval", round_index, pairs, track, cfg.races.eval_races))
 
     def record(self, learner: str, round_index: int) -> float | None:
         """``learner``'s worst win rate against the anchors in the evaluation races of rounds
-        ``round_index - main_restore_window + 1`` to ``round_index`` (each race counted once,
-        a tie as half a win); None if it did not race every anchor in them."""
+        ``round_index - window + 1`` to ``round_index`` (``[main_restore] window``; each race
+        counted once, a tie as half a win); None if it did not race every anchor in them."""
         from h2h_racing.league.pfsp import Payoff
 
-        first = round_index - self.config.main_restore_window + 1
+        first = round_index - self.config.main_restore.window + 1
         context = self._context("eval")
         races = [m.places for m in self.store.matches(context=context)
                  if learner in m.places and first <= _round_of(m.key, context) <= round_index]
@@ -287,11 +289,11 @@ class League:
 
     def _keep_best(self, learner: str, round_index: int) -> None:
         """Save ``learner``'s state when its record is the best so far; put the best state
-        back when its record is more than ``main_restore_margin`` below the best
-        (``LeagueConfig.main_restore_margin``). Files first, then the store: a run killed in
+        back when its record is more than ``[main_restore] margin`` below the best
+        (``LeagueConfig.main_restore``). Files first, then the store: a run killed in
         between repeats the same copies when it resumes the round."""
         cfg = self.config
-        window = cfg.main_restore_window
+        window = cfg.main_restore.window
         if round_index < self._learner_meta(learner, "judge_from", window - 1):
             return
         record = self.record(learner, round_index)
@@ -303,12 +305,12 @@ class League:
             copy_state(folder, folder / "best")
             self.store.set_metas({f"{learner}.best_record": repr(record),
                                   f"{learner}.best_round": str(round_index)})
-        elif record < best - cfg.main_restore_margin:
+        elif record < best - cfg.main_restore.margin:
             restores = int(self._learner_meta(learner, "restores")) + 1
             self._put_back_best(learner, round_index, {f"{learner}.restores": str(restores)})
             best_round = int(self._learner_meta(learner, "best_round"))
             print(f"[league {cfg.name}] round {round_index + 1}: {learner}'s record against "
-                  f"the anchors {record:.2f} < best {best:.2f} - {cfg.main_restore_margin}: "
+                  f"the anchors {record:.2f} < best {best:.2f} - {cfg.main_restore.margin}: "
                   f"restored its state after round {best_round + 1}",
                   file=self.out, flush=True)
 
@@ -321,11 +323,11 @@ class League:
         copy_state(folder / "best", folder)
         self.store.set_metas({
             **(metas or {}), f"{learner}.reload": "1",
-            f"{learner}.judge_from": str(round_index + self.config.main_restore_window)})
+            f"{learner}.judge_from": str(round_index + self.config.main_restore.window)})
 
     def _finish_on_best(self, learner: str) -> None:
         """Leave ``learner`` at its best-record state at the end of a run
-        (``LeagueConfig.main_finish_on_best``); nothing if it is there already or no record
+        (``[main_restore] finish_on_best``); nothing if it is there already or no record
         was ever made."""
         meta = self.store.meta()
         last = self._round() - 1
@@ -369,7 +371,7 @@ class League:
             older.append(snapshot.name)
         jobs = [job for track in self.config.rating_tracks
                 for job in self._jobs("placement", None, pairs, track,
-                                      self.config.placement_races)]
+                                      self.config.races.placement_races)]
         if jobs:
             self._play(jobs)
             self._rate()

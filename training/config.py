@@ -21,7 +21,7 @@ import numpy as np
 from h2h_racing.config import EnvConfig, RaceRules, RewardConfig
 from h2h_racing.track import Track
 from h2h_racing.training.teachers import SCRIPTED_TEACHERS, load_teacher
-from h2h_racing.training.toml_types import check_fields
+from h2h_racing.training.toml_types import build_tables
 from h2h_racing.training.tracks import random_training_track
 from h2h_racing.training.vec_env import OBSERVATIONS, PoolOpponent, RacingVecEnv
 
@@ -320,24 +320,8 @@ class TrainConfig:
         """Build from plain data (a parsed TOML file): top-level keys are this class's fields,
         the tables ``[ppo]``, ``[distill]`` and ``[reward]`` fill ``PPOConfig``,
         ``DistillConfig`` and ``RewardConfig``; unknown keys raise ``ValueError``."""
-        nested = {"ppo": PPOConfig, "distill": DistillConfig, "reward": RewardConfig}
-        values = dict(data)
-        for key, kind in ((None, cls), *nested.items()):
-            table = values if key is None else values.get(key, {})
-            if key is not None and not isinstance(table, dict):
-                raise ValueError(f"{source}: {key!r} must be a table of {kind.__name__} fields, "
-                                 f"got {table!r}")
-            known = {f.name for f in dataclasses.fields(kind)}
-            unknown = sorted(set(table) - known)
-            if unknown:
-                where = "" if key is None else f"[{key}] "
-                raise ValueError(f"{source}: {where}unknown keys {unknown}; allowed keys are "
-                                 f"{sorted(known)}")
-        # Types first, so that a wrong one is named with its key (not "'<' not supported").
-        values = check_fields(cls, values, source)
-        for key, kind in nested.items():
-            if key in values and isinstance(values[key], dict):
-                values[key] = kind(**check_fields(kind, values[key], source, f"[{key}] "))
+        values = build_tables(cls, data, source, {"ppo": PPOConfig, "distill": DistillConfig,
+                                                  "reward": RewardConfig})
         try:
             return cls(**values)
         except (TypeError, ValueError) as err:

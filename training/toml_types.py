@@ -127,3 +127,38 @@ def check_fields(cls: type, values: dict[str, Any], source: str,
                              f"{value!r} ({type(value).__name__})")
         out[key] = converted
     return out
+
+
+def build_tables(cls: type, data: dict[str, Any], source: str,
+                 tables: dict[str, type]) -> dict[str, Any]:
+    """The keyword arguments of config dataclass ``cls`` from a parsed TOML file: top-level
+    keys are ``cls``'s fields, and each table named in ``tables`` fills its config dataclass.
+    Unknown keys, at the top or in a table, are refused with the allowed ones; types are
+    checked as ``check_fields`` does.
+
+    Raises:
+        ValueError: ``"<source>: ..."``: an unknown key, a value of the wrong type, or a
+            table's own check.
+    """
+    for key, kind in ((None, cls), *tables.items()):
+        table = data if key is None else data.get(key, {})
+        if key is not None and not isinstance(table, (dict, kind)):
+            raise ValueError(f"{source}: {key!r} must be a table of {kind.__name__} fields, "
+                             f"got {table!r}")
+        if isinstance(table, kind):
+            continue
+        known = {f.name for f in dataclasses.fields(kind)}
+        unknown = sorted(set(table) - known)
+        if unknown:
+            where = "" if key is None else f"[{key}] "
+            raise ValueError(f"{source}: {where}unknown keys {unknown}; allowed keys are "
+                             f"{sorted(known)}")
+    values = check_fields(cls, data, source)
+    for key, kind in tables.items():
+        if isinstance(values.get(key), dict):
+            table = check_fields(kind, values[key], source, f"[{key}] ")
+            try:
+                values[key] = kind(**table)
+            except (TypeError, ValueError) as err:
+                raise ValueError(f"{source}: {err}") from None
+    return values

@@ -269,10 +269,10 @@ def test_league_toml_takes_one_track_name_as_a_list(tmp_path) -> None:
 def test_league_toml_names_the_key_of_a_value_of_the_wrong_type(tmp_path) -> None:
     from h2h_racing.league.config import LeagueConfig
 
-    path = write(tmp_path, "l.toml", 'eval_recent = "6"\n')
+    path = write(tmp_path, "l.toml", '[races]\neval_recent = "6"\n')
     with pytest.raises(ValueError) as err:
         LeagueConfig.from_toml(path)
-    assert str(err.value) == f"{path}: eval_recent must be an integer, got '6' (str)"
+    assert str(err.value) == f"{path}: [races] eval_recent must be an integer, got '6' (str)"
     path = write(tmp_path, "m.toml", 'tracks = ["oval", 3]\n')
     with pytest.raises(ValueError, match=r"tracks must be a list of strings \(or one string\), "
                                          r"got \['oval', 3\]"):

@@ -138,9 +138,13 @@ class TestCraftedFilesAreRefused:
             init = "{_state_policy()}"
             anchors = ["racing_line"]
             max_rounds = 1
+
+            [training]
             iterations_per_round = 1
             num_envs = 2
             num_steps_per_env = 4
+
+            [races]
             eval_races = 1
             placement_races = 1
             laps = 1
@@ -159,12 +163,13 @@ class TestLearnerStateRoundTrip:
 
     def test_saved_state_resumes(self, tmp_path: Path) -> None:
         from h2h_racing.league import learners
-        from h2h_racing.league.config import LeagueConfig
+        from h2h_racing.league.config import LeagueConfig, LearnerTraining
         from h2h_racing.league.learners import TrainJob, train_round
         from h2h_racing.training.policy_file import load_runner_state
 
         config = LeagueConfig(tracks=("oval",), anchors=("racing_line",), init=None,
-                              iterations_per_round=1, num_envs=2, num_steps_per_env=4)
+                              training=LearnerTraining(iterations_per_round=1, num_envs=2,
+                                                       num_steps_per_env=4))
         folder = tmp_path / "main"
         job = TrainJob(learner="round_trip", role="main", folder=str(folder), config=config,
                        round=0, track="oval", opponents=("racing_line",) * 2, reset=False,

@@ -264,8 +264,8 @@ class TestImitationPPO:
         assert losses[-1] < losses[0]
 
     def test_a_zero_weight_leaves_the_actor_alone(self) -> None:
-        # A faded term (LeagueConfig.imitation_rounds) is 0: even a zero loss would move the
-        # weights through Adam's momentum from the PPO steps before, so no step is taken.
+        # A term set to 0 on a running learner: even a zero loss would move the weights
+        # through Adam's momentum from the PPO steps before, so no step is taken.
         runner = train(self.CONFIG, iterations=1)
         runner.alg.imitation_coef = 0.0
         before = [p.detach().clone() for p in runner.alg.get_policy().parameters()]
