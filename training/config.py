@@ -218,13 +218,6 @@ class TrainConfig:
     agents are kept near the supervised policy by a KL term (for Gaussians of equal std, a
     squared distance of the means): reinforcement learning improves on the driver without
     forgetting what it does well. 0 turns it off."""
-    validation_tracks: int = 0
-    """Procedural runs: held-out random tracks (drawn like the training tracks, from their own
-    seed, never trained on) on which every evaluation (``eval_every``) also makes
-    ``eval_episodes`` lap attempts each. With any, ``policy.pt`` holds the actor of the
-    evaluation with the highest lap completion on them (the later one on ties; the final
-    actor is evaluated too) rather than the last actor: one update can cost a policy a corner
-    type that the next track does not have."""
     distill: DistillConfig = field(default_factory=DistillConfig)
     """Distillation hyper-parameters (used with ``teacher``)."""
     rules: Literal["training", "race"] = "training"
@@ -256,15 +249,6 @@ class TrainConfig:
                                  f"teacher or imitation_driver ({', '.join(SCRIPTED_TEACHERS)}), "
                                  f"but teacher is {self.teacher!r}")
             self.expert()
-        if not (isinstance(self.validation_tracks, int) and self.validation_tracks >= 0):
-            raise ValueError(f"TrainConfig.validation_tracks must be an int >= 0, got "
-                             f"{self.validation_tracks!r}")
-        if self.validation_tracks and self.track != PROCEDURAL:
-            raise ValueError("TrainConfig.validation_tracks are held-out random tracks for "
-                             "track='procedural' runs; a fixed track has no held-out tracks")
-        if self.validation_tracks and not self.eval_every:
-            raise ValueError("TrainConfig.validation_tracks are driven at the evaluations: set "
-                             "eval_every > 0 (iterations between them)")
         if self.teacher is not None and self.observations == "state" and not self.scripted_teacher:
             raise ValueError("TrainConfig.teacher distils a state policy into a camera policy: "
                              "set observations to 'camera_only' or 'camera' (a state student "

@@ -51,21 +51,16 @@ def policy_payload(runner: Any, config: TrainConfig,
 
 
 def save_policy(runner: Any, config: TrainConfig, path: str | Path,
-                training: dict[str, float] | None = None,
-                payload: dict[str, Any] | None = None) -> Path:
-    """Write the actor of ``runner`` (or the earlier actor of ``payload``, a ``policy_payload``)
-    and the configs it was trained with to ``path``, with ``training`` figures.
+                training: dict[str, float] | None = None) -> Path:
+    """Write the actor of ``runner`` and the configs it was trained with to ``path``, with
+    ``training`` figures.
 
     The file holds only tensors and plain Python values, so it loads with
     ``torch.load(path, weights_only=True)``.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    if payload is None:
-        payload = policy_payload(runner, config, training)
-    else:
-        payload = {**payload, "training": dict(training or {})}
-    torch.save(payload, path)
+    torch.save(policy_payload(runner, config, training), path)
     return path
 
 

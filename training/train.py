@@ -9,8 +9,7 @@ rerun recording of a race to ``<out>/eval/iter_<n>.rrd``.
 With ``TrainConfig.teacher`` it imitates a teacher with rsl-rl's ``Distillation`` instead
 (DAgger: the student drives, the teacher labels the states it reaches): a state policy
 distilled into a camera policy, or a scripted driver (``racing_line``) whose actions the env
-computes in the learner's place (``h2h_racing.training.teachers``). Procedural runs can hold
-out random tracks (``validation_tracks``) and keep the actor that laps them best.
+computes in the learner's place (``h2h_racing.training.teachers``).
 """
 
 from __future__ import annotations
@@ -19,7 +18,6 @@ import importlib.util
 import os
 import time
 import warnings
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -34,7 +32,6 @@ except ImportError as _error:
 
 import numpy as np  # noqa: E402
 
-from h2h_racing.track import Track  # noqa: E402
 from h2h_racing.training.config import PROCEDURAL, TrainConfig  # noqa: E402
 from h2h_racing.training.policy_file import (  # noqa: E402
     load_actor, load_init, policy_payload, save_policy)
@@ -83,9 +80,6 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
     if minutes is not None:
         chunk = 10
     tracks = np.random.default_rng(config.seed + 1)
-    validation = validation_tracks(config) if procedural and eval_every else []
-    best: tuple[float, int] | None = None  # (validation lap completion, iteration)
-    best_payload: dict[str, Any] | None = None
     save_interval = runner.cfg["save_interval"]
     extra: Path | None = None
     while done < iterations:
@@ -112,13 +106,8 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
         runner.logger.init_logging_writer = _keep_writer
         done += step
         over_time = minutes is not None and time.perf_counter() - start > 60.0 * minutes
-        last = over_time or done >= iterations
-        if eval_every and (done % eval_every == 0 or (validation and last)):
-            scalars = evaluate_during_training(runner, config, Path(out),  # type: ignore[arg-type]
-                                               done, validation)
-            if validation and (best is None or scalars["validation_completion"] >= best[0]):
-                best = (scalars["validation_completion"], done)
-                best_payload = policy_payload(runner, config)
+        if eval_every and done % eval_every == 0:
+            evaluate_during_training(runner, config, Path(out), done)  # type: ignore[arg-type]
         if over_time:
             break
     env.close()
@@ -126,22 +115,8 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
         runner.logger.writer.close()
     if out is not None:
         training = {"iterations": done, "seconds": time.perf_counter() - start}
-        if best is not None:
-            training.update(selected_iteration=best[1], validation_completion=best[0])
-            print(f"policy.pt: the actor of iteration {best[1]} (lap completion "
-                  f"{100 * best[0]:.1f} % on {len(validation)} held-out random tracks)")
-        save_policy(runner, config, Path(out) / "policy.pt", training=training,
-                    payload=best_payload)
+        save_policy(runner, config, Path(out) / "policy.pt", training=training)
     return runner
-
-
-def validation_tracks(config: TrainConfig) -> list[Track]:
-    """``config.validation_tracks`` random tracks drawn like a procedural run's training tracks
-    but from seed ``config.seed + 2`` (the training tracks come from ``seed + 1``): tracks
-    the run never trains on, for choosing among its actors without looking at the shipped
-    tracks it is judged on."""
-    rng = np.random.default_rng(config.seed + 2)
-    return [config.procedural_track(rng) for _ in range(config.validation_tracks)]
 
 
 def _keep_writer() -> None:
@@ -149,8 +124,7 @@ def _keep_writer() -> None:
 
 
 def evaluate_during_training(runner: Any, config: TrainConfig, out: str | Path,
-                             iteration: int, validation: Sequence[Track] = ()
-                             ) -> dict[str, float]:
+                             iteration: int) -> dict[str, float]:
     """Evaluate the runner's current actor, log the figures and record a race.
 
     The actor becomes a ``TrainedPolicy`` straight from memory (no file). On the evaluation
@@ -166,16 +140,13 @@ def evaluate_during_training(runner: Any, config: TrainConfig, out: str | Path,
     ``Eval/lap_completion`` (fraction of attempts), ``Eval/mean_lap_time`` and
     ``Eval/best_lap_time`` [s] (only when a lap was completed), ``Eval/off_tracks`` (attempts
     that ended off track) and ``Eval/collisions`` (contacts, over all attempts), and of the
-    race ``Eval/race_finished`` (1 or 0) and ``Eval/race_position`` (1 = first). With
-    ``validation`` tracks, ``Eval/validation_completion``: the fraction of
-    ``config.eval_episodes`` attempts per track completed over all of them.
+    race ``Eval/race_finished`` (1 or 0) and ``Eval/race_position`` (1 = first).
 
     Args:
         runner: The rsl-rl ``OnPolicyRunner`` being trained.
         config: Its training config.
         out: The run's output folder.
         iteration: Iterations completed (names the recording and steps the log).
-        validation: Held-out tracks (``validation_tracks``).
 
     Returns:
         The figures, keyed as logged without the ``Eval/`` prefix.
@@ -199,10 +170,6 @@ def evaluate_during_training(runner: Any, config: TrainConfig, out: str | Path,
     if np.isfinite(figures.mean_lap_time):
         scalars["mean_lap_time"] = figures.mean_lap_time
         scalars["best_lap_time"] = figures.best_lap_time
-    if validation:
-        scalars["validation_completion"] = float(np.mean([
-            evaluate(driver, track, episodes=config.eval_episodes, seed=config.seed,
-                     **env_fields).lap_completion for track in validation]))
 
     learners = config.num_cars if config.learners is None else config.learners
     # With several opponents the recorded race is against the first.
@@ -228,9 +195,7 @@ def evaluate_during_training(runner: Any, config: TrainConfig, out: str | Path,
             writer.add_scalar(f"Eval/{key}", value, iteration)
         writer.flush()
     lap = (f"{scalars['mean_lap_time']:.2f} s" if "mean_lap_time" in scalars else "-")
-    held_out = (f", {100 * scalars['validation_completion']:.1f} % on {len(validation)} "
-                f"held-out tracks" if validation else "")
     print(f"eval at iteration {iteration}: laps {100 * figures.lap_completion:.0f} % of "
-          f"{figures.episodes}{held_out}, mean lap {lap}, off track {figures.off_tracks}, race "
+          f"{figures.episodes}, mean lap {lap}, off track {figures.off_tracks}, race "
           f"position {mine['position']}/{config.num_cars}" + (f" -> {save}" if save else ""))
     return scalars

@@ -12,7 +12,6 @@ from tensordict import TensorDict
 
 import h2h_racing
 from h2h_racing.config import CameraConfig
-from h2h_racing.training.evaluate import evaluate
 from h2h_racing.training.config import DistillConfig, TrainConfig
 from h2h_racing.training.policy_file import policy_payload
 from h2h_racing.training.train import train
@@ -217,46 +216,6 @@ class TestScriptedTeacher:
                 return float(((policy(obs) - obs["expert"]) ** 2).mean())
 
         assert error(trained) < 0.5 * error(untrained)
-
-
-class TestValidationTracks:
-    """validation_tracks: policy.pt holds the actor that lapped held-out random tracks best."""
-
-    def test_policy_file_is_the_best_validated_actor(self, tmp_path: Path) -> None:
-        from h2h_racing.training.train import validation_tracks
-
-        config = dataclasses.replace(
-            TestScriptedTeacher.CONFIG, track="procedural", track_every=2, eval_every=2,
-            eval_episodes=2, eval_race_seconds=1.0, validation_tracks=2)
-        train(config, iterations=5, out=tmp_path)
-        payload = torch.load(tmp_path / "policy.pt", weights_only=True)
-        training = payload["training"]
-        # Evaluations after iterations 2 and 4, and of the final actor (iteration 5).
-        assert training["iterations"] == 5 and training["selected_iteration"] in (2, 4, 5)
-        # The file's actor laps the held-out tracks as the selection says: 2 attempts on each
-        # of the 2 tracks, so the completion is a multiple of 1/4.
-        driver = TrainedPolicy(tmp_path / "policy.pt")
-        laps = [evaluate(driver, track, episodes=2, seed=config.seed).lap_completion
-                for track in validation_tracks(config)]
-        assert float(np.mean(laps)) == training["validation_completion"]
-        assert (4 * training["validation_completion"]) % 1 == 0
-
-    def test_held_out_tracks_are_not_training_tracks(self) -> None:
-        from h2h_racing.training.tracks import random_training_track
-        from h2h_racing.training.train import validation_tracks
-
-        config = dataclasses.replace(TEACHER_CONFIG, track="procedural", validation_tracks=3)
-        rng = np.random.default_rng(config.seed + 1)
-        training = {random_training_track(rng).name for _ in range(30)}
-        held_out = [t.name for t in validation_tracks(config)]
-        assert len(set(held_out)) == 3 and not training & set(held_out)
-
-    def test_only_for_procedural_runs(self) -> None:
-        with pytest.raises(ValueError, match="validation_tracks are held-out random tracks"):
-            dataclasses.replace(TEACHER_CONFIG, validation_tracks=2)
-        with pytest.raises(ValueError, match="set eval_every > 0"):
-            dataclasses.replace(TEACHER_CONFIG, track="procedural", validation_tracks=2,
-                                eval_every=0)
 
 
 class TestTeacherChecks:
