@@ -3,14 +3,8 @@
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:
-    from h2h_racing.league.store import LeagueStore
-
 PLAYER_KINDS = ("scripted", "policy", "snapshot", "learner")
 """Allowed ``Player.kind`` values."""
 
@@ -38,12 +32,6 @@ def file_sha256(path: str | Path) -> str:
     return digest.hexdigest()
 
 
-def ensure_players(store: LeagueStore, players: Iterable[Player]) -> None:
-    """Add every player that is not in the league yet."""
-    for player in players:
-        store.add_player(player)
-
-
 def player_for(name: str) -> Player:
     """A ``Player`` for a driver given as on the command line: a scripted or shipped driver
     name, or a ``policy.pt`` path (hashed, so a changed file is caught)."""
@@ -68,10 +56,3 @@ def _policy_name(path: Path) -> str:
     """``runs/abc/policy.pt`` -> ``abc``; ``x/best.pt`` -> ``best``."""
     return path.parent.name if path.stem == "policy" and path.parent.name else path.stem
 
-
-def checkpoint_of(players: Sequence[Player], name: str) -> str:
-    """What ``make_driver`` needs to build ``name``: its driver name or checkpoint path."""
-    for player in players:
-        if player.name == name:
-            return player.checkpoint or player.name
-    raise KeyError(name)

@@ -49,8 +49,6 @@ from typing import Any
 from h2h_racing.league.players import (
     PLAYER_KINDS,
     Player,
-    checkpoint_of,
-    ensure_players,
     file_sha256,
     player_for,
 )
