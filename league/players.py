@@ -5,6 +5,7 @@ from __future__ import annotations
 import hashlib
 from dataclasses import dataclass
 from pathlib import Path
+
 PLAYER_KINDS = ("scripted", "policy", "snapshot", "learner")
 """Allowed ``Player.kind`` values."""
 
