@@ -21,6 +21,7 @@ import numpy as np
 import numpy.typing as npt
 import pymunk
 import pymunk.batch as pb
+from pymunk._chipmunk_cffi import ffi, lib
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -121,12 +122,14 @@ class PhysicsWorld:
         self._write_vel = np.zeros((total, 3), dtype=np.float64)
         self._write_state_buffer.set_float_buf(self._write.reshape(-1))
         self._write_vel_buffer.set_float_buf(self._write_vel.reshape(-1))
+        self._bind_step()
         self._check_body_order(ids)
 
     def __getstate__(self) -> dict[str, object]:
         # cffi batch buffers cannot be pickled; they are rebuilt around fresh numpy arrays.
         state = self.__dict__.copy()
-        for key in ("_read_buffer", "_write_vel_buffer", "_write_state_buffer"):
+        for key in ("_read_buffer", "_write_vel_buffer", "_write_state_buffer", "_cp_space",
+                    "_set_velocities", "_get_state"):
             del state[key]
         return state
 
@@ -144,6 +147,28 @@ class PhysicsWorld:
         self._write_state_buffer.set_float_buf(self._write.reshape(-1))
         self._write_vel_buffer = pb.Buffer()
         self._write_vel_buffer.set_float_buf(self._write_vel.reshape(-1))
+        self._bind_step()
+
+    def _bind_step(self) -> None:
+        """Build once what :meth:`step` hands chipmunk on every step.
+
+        pymunk's ``Space.step`` and ``batch.get/set_space_bodies`` rebuild their C arguments
+        and re-check pending additions on every call, which costs a 2-car env about a fifth
+        of its step; :meth:`step` makes the same chipmunk calls with arguments built here.
+        """
+        self._cp_space = self.space._space
+        set_data = ffi.new("pmBatchedData *")
+        set_data.fields = _VELOCITY_FIELDS.value
+        set_data.floatArray = self._write_vel_buffer._float_arr
+        set_data.intArray = self._write_vel_buffer._int_arr
+        get_data = ffi.new("pmBatchedData *")
+        get_data.fields = _STATE_FIELDS.value
+        get_data.floatArray = self._read_buffer._float_arr
+        get_data.intArray = self._read_buffer._int_arr
+        self._set_velocities = (ffi.addressof(lib, "pmSpaceBodySetIteratorFuncBatched"),
+                                set_data, self._write_vel_buffer._float_arr)
+        self._get_state = (ffi.addressof(lib, "pmSpaceBodyGetIteratorFuncBatched"), get_data,
+                           self._read_buffer._float_arr, self._read_buffer._int_arr)
 
     def _check_body_order(self, ids: npt.NDArray[np.uint64]) -> None:
         """Verify that pymunk iterates bodies in insertion order (the batch layout relies on it)."""
@@ -203,13 +228,36 @@ class PhysicsWorld:
             dt: Total step length [s], split evenly over the sub-steps.
             substeps: Number of pymunk steps.
         """
-        pb.set_space_bodies(self.space, _VELOCITY_FIELDS, self._write_vel_buffer)
+        space = self.space
         sub_dt = dt / substeps
-        space_step = self.space.step
-        for _ in range(substeps):
-            space_step(sub_dt)
-        self._read_buffer.clear()
-        pb.get_space_bodies(self.space, _STATE_FIELDS, self._read_buffer)
+        if (space._bodies_to_check or space._add_later or space._remove_later
+                or space._post_step_callbacks):
+            # pymunk's own wrapper checks new bodies and runs deferred work (the first step).
+            pb.set_space_bodies(space, _VELOCITY_FIELDS, self._write_vel_buffer)
+            for _ in range(substeps):
+                space.step(sub_dt)
+            self._read_buffer.clear()
+            pb.get_space_bodies(space, _STATE_FIELDS, self._read_buffer)
+            return
+        # The same chipmunk calls as pymunk's wrappers, with arguments built once
+        # (_bind_step). Locked as pymunk locks it, so that a contact callback that added or
+        # removed bodies would be deferred as usual.
+        cp_space, each_body, cp_step = self._cp_space, lib.cpSpaceEachBody, lib.cpSpaceStep
+        set_func, set_data, write_floats = self._set_velocities
+        count = write_floats.num
+        write_floats.num = 0
+        each_body(cp_space, set_func, set_data)
+        write_floats.num = count
+        space._locked = True
+        try:
+            for _ in range(substeps):
+                cp_step(cp_space, sub_dt)
+        finally:
+            space._locked = False
+        get_func, get_data, read_floats, read_ints = self._get_state
+        read_floats.num = 0
+        read_ints.num = 0
+        each_body(cp_space, get_func, get_data)
 
     def read_cars(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
         """Read every car's position, angle, velocity and angular velocity (fresh arrays)."""
