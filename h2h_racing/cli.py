@@ -366,8 +366,8 @@ def build_parser() -> argparse.ArgumentParser:
                             "override them")
     train.add_argument("--track", default=None,
                        help="catalogue name, track file, random:<seed>, or 'procedural' (a new "
-                            "random track every track_every iterations, 10 by default) "
-                            "(default: speedway)")
+                            "random track every 10 iterations; a config's [procedural] table "
+                            "sets them) (default: speedway)")
     train.add_argument("--obs", default=None, choices=["state", "camera", "camera_only"],
                        help="actor input: the state vector; camera + state vector; or camera + "
                             "own speed and steering (camera_only, DeepRacer's setting) "

@@ -352,17 +352,9 @@ class LeagueConfig:
         """Build from plain data (a parsed TOML file): top-level keys are this class's fields,
         ``[[learners]]`` entries ``LearnerSpec``s, the other tables (``TABLES``) their
         configs; unknown keys raise ``ValueError``."""
-        removed = sorted(key for key in data if key in REMOVED)
-        if removed:
-            raise ValueError(f"{source}: {', '.join(removed)} was removed: "
-                             + "; ".join(REMOVED[key] for key in removed))
-        moved = sorted(key for key in data if key in MOVED)
-        if moved:
-            raise ValueError(f"{source}: {', '.join(moved)} moved into tables: "
-                             + "; ".join(f"{key} is now {MOVED[key]}" for key in moved))
         # Types first, so that a wrong one is named with its key (not "'<' not supported");
         # one string for a list of names is that one name.
-        values = build_tables(cls, data, source, TABLES)
+        values = build_tables(cls, data, source, TABLES, moved=MOVED, removed=REMOVED)
         if "learners" in values:
             learners = []
             for i, entry in enumerate(values["learners"]):

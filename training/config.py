@@ -16,13 +16,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-import numpy as np
-
 from h2h_racing.config import EnvConfig, RaceRules, RewardConfig
-from h2h_racing.track import Track
 from h2h_racing.training.teachers import SCRIPTED_TEACHERS, load_teacher
 from h2h_racing.training.toml_types import build_tables
-from h2h_racing.training.tracks import random_training_track
+from h2h_racing.training.tracks import ProceduralTracks
 from h2h_racing.training.vec_env import OBSERVATIONS, PoolOpponent, RacingVecEnv
 
 STD_FLOOR = 1e-6
@@ -98,44 +95,29 @@ class DistillConfig:
                                  f"{getattr(self, name)!r}")
 
 
+TABLES: dict[str, type] = {"ppo": PPOConfig, "distill": DistillConfig, "reward": RewardConfig,
+                           "procedural": ProceduralTracks}
+"""``TrainConfig``'s tables and the configs they fill."""
+MOVED = {"track_every": "[procedural] every",
+         **{f"procedural_{name}": f"[procedural] {name}"
+            for name in ("varying_share", "length", "min_radius", "reverse_share", "chicanes",
+                         "tight_share")}}
+"""Top-level keys of the earlier flat layout and where they are now."""
+REMOVED = {"validation_tracks": "held-out random tracks did not predict the shipped tracks "
+                                "(ppo_generalist's card)"}
+"""Options that were tried and removed, and why."""
+
+
 @dataclass(frozen=True, kw_only=True)
 class TrainConfig:
     """What to train, on what, against whom."""
 
     track: str = "speedway"
     """Catalogue name, track file, ``random:<seed>``, or ``"procedural"``: a new random track
-    (``random_training_track`` with the ``procedural_*`` settings) every ``track_every``
-    iterations."""
-    track_every: int = 10
-    """Iterations between track changes with ``track="procedural"``."""
-    procedural_varying_share: float = 0.0
-    """Share of procedural tracks whose width varies along the lap (``random_training_track``).
-    0 (as ``ppo_procedural``): three 10-15 minute runs with 0.3, corners down to 0.45 m and
-    laps from 15 m generalised worse (53-69 % of laps on the shipped tracks against 79 %)."""
-    procedural_length: tuple[float, float] = (20.0, 45.0)
-    """Lap-length range of procedural tracks [m] (shorter laps of the same shapes have
-    tighter corners)."""
-    procedural_min_radius: float = 0.6
-    """Smallest corner radius of procedural tracks [m], raised to 1.2 x the widest half-width
-    on wider tracks (``technical`` has 0.5 m corners)."""
-    procedural_reverse_share: float = 0.0
-    """Share of procedural tracks driven clockwise (``Track.reversed``). The generator's loops
-    are star-shaped and run anticlockwise: their right-hand bends are gentle (tightest radius
-    1.2 m or more, median 4.9 m over 60 tracks), while ``technical`` turns right at 0.53 m,
-    ``hairpin_valley`` at 0.75 m; driven the other way, every tight left-hander is a tight
-    right-hander. 0 (as ``ppo_procedural``): a 1,020-iteration run with 0.5 lapped 75.0 % of
-    the shipped tracks' attempts against 79.3 %, still 0 % on ``technical`` (its card)."""
-    procedural_chicanes: tuple[int, int] = (0, 0)
-    """``(fewest, most)`` chicanes added to each procedural track (``random_track``'s
-    ``chicanes``): S-bends as on ``technical``'s start straight, which smooth loops lack.
-    (0, 0) (as ``ppo_procedural``): (1, 4) with half the tracks reversed and corners down to
-    0.5 m lapped 72.1 %, 0 % on ``technical``."""
-    procedural_tight_share: float = 0.0
-    """Share of procedural tracks that are short, narrow and twisty like ``technical``
-    (``random_training_track``'s ``tight_share``): the other generated tracks spend 0-5 % of
-    their lap in corners under 1 m radius, ``technical`` 40 %. 0.3 (with imitation of the
-    racing line, then PPO) trained ``ppo_generalist``, the first procedural policy to lap
-    ``technical``."""
+    (``procedural``'s settings) every ``procedural.every`` iterations."""
+    procedural: ProceduralTracks = field(default_factory=ProceduralTracks)
+    """``[procedural]``: the random tracks of ``track="procedural"`` runs and how often they
+    change."""
     observations: Literal["state", "camera", "camera_only"] = "state"
     """Actor input: the state vector; the camera plus the state vector; or the camera plus the
     car's own speed and steering angle (``camera_only``: DeepRacer's setting, no track geometry
@@ -254,22 +236,9 @@ class TrainConfig:
                              "set observations to 'camera_only' or 'camera' (a state student "
                              "of a state teacher would only copy it), or imitate a scripted "
                              f"driver ({', '.join(SCRIPTED_TEACHERS)})")
-        for name in ("procedural_varying_share", "procedural_reverse_share",
-                     "procedural_tight_share"):
-            if not 0.0 <= getattr(self, name) <= 1.0:
-                raise ValueError(f"TrainConfig.{name} must be in [0, 1], got "
-                                 f"{getattr(self, name)!r}")
-        fewest, most = self.procedural_chicanes
-        if not (isinstance(fewest, int) and isinstance(most, int) and 0 <= fewest <= most):
-            raise ValueError(f"TrainConfig.procedural_chicanes must be (fewest, most) ints with "
-                             f"0 <= fewest <= most, got {self.procedural_chicanes!r}")
-        low, high = self.procedural_length
-        if not 5.0 <= low <= high:
-            raise ValueError(f"TrainConfig.procedural_length must be (low, high) laps with "
-                             f"5 <= low <= high [m], got {self.procedural_length!r}")
-        if not 0.4 <= self.procedural_min_radius:
-            raise ValueError(f"TrainConfig.procedural_min_radius must be >= 0.4 m (above the "
-                             f"narrowest half-width, 0.38 m), got {self.procedural_min_radius!r}")
+        if not isinstance(self.procedural, ProceduralTracks):
+            raise ValueError(f"TrainConfig.procedural must be a ProceduralTracks, got "
+                             f"{self.procedural!r}")
         if self.num_envs < 1 or self.num_steps_per_env < 1:
             raise ValueError("TrainConfig.num_envs and num_steps_per_env must be >= 1")
         if self.max_std is not None and not (isinstance(self.max_std, (int, float))
@@ -302,10 +271,10 @@ class TrainConfig:
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "train config") -> TrainConfig:
         """Build from plain data (a parsed TOML file): top-level keys are this class's fields,
-        the tables ``[ppo]``, ``[distill]`` and ``[reward]`` fill ``PPOConfig``,
-        ``DistillConfig`` and ``RewardConfig``; unknown keys raise ``ValueError``."""
-        values = build_tables(cls, data, source, {"ppo": PPOConfig, "distill": DistillConfig,
-                                                  "reward": RewardConfig})
+        the tables ``[ppo]``, ``[distill]``, ``[reward]`` and ``[procedural]`` fill
+        ``PPOConfig``, ``DistillConfig``, ``RewardConfig`` and ``ProceduralTracks``; unknown
+        keys raise ``ValueError`` (a key of the earlier flat layout names its table)."""
+        values = build_tables(cls, data, source, TABLES, moved=MOVED, removed=REMOVED)
         try:
             return cls(**values)
         except (TypeError, ValueError) as err:
@@ -344,14 +313,6 @@ class TrainConfig:
         except TypeError as err:
             raise ValueError(f"TrainConfig.teacher_options {self.teacher_options!r} do not fit "
                              f"the {name!r} driver: {err}") from None
-
-    def procedural_track(self, rng: np.random.Generator) -> Track:
-        """A random training track drawn from ``rng`` with this run's ``procedural_*``
-        settings (``random_training_track``)."""
-        return random_training_track(rng, self.procedural_varying_share,
-                                     self.procedural_min_radius, self.procedural_length,
-                                     self.procedural_reverse_share, self.procedural_chicanes,
-                                     self.procedural_tight_share)
 
     def env_config(self) -> EnvConfig:
         """The env the learners race in: ``rules`` (DeepRacer's training rules by default: an

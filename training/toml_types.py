@@ -129,17 +129,31 @@ def check_fields(cls: type, values: dict[str, Any], source: str,
     return out
 
 
-def build_tables(cls: type, data: dict[str, Any], source: str,
-                 tables: dict[str, type]) -> dict[str, Any]:
+def build_tables(cls: type, data: dict[str, Any], source: str, tables: dict[str, type],
+                 moved: dict[str, str] | None = None,
+                 removed: dict[str, str] | None = None) -> dict[str, Any]:
     """The keyword arguments of config dataclass ``cls`` from a parsed TOML file: top-level
     keys are ``cls``'s fields, and each table named in ``tables`` fills its config dataclass.
     Unknown keys, at the top or in a table, are refused with the allowed ones; types are
     checked as ``check_fields`` does.
 
+    Args:
+        moved: Top-level keys of an earlier layout -> where they are now (``"[table] key"``).
+        removed: Keys that were removed -> why.
+
     Raises:
-        ValueError: ``"<source>: ..."``: an unknown key, a value of the wrong type, or a
-            table's own check.
+        ValueError: ``"<source>: ..."``: a removed or moved key (saying why or where to), an
+            unknown key, a value of the wrong type, or a table's own check.
     """
+    gone = sorted(key for key in data if key in (removed or {}))
+    if gone:
+        raise ValueError(f"{source}: {', '.join(gone)} was removed: "
+                         + "; ".join(removed[key] for key in gone))  # type: ignore[index]
+    elsewhere = sorted(key for key in data if key in (moved or {}))
+    if elsewhere:
+        raise ValueError(f"{source}: {', '.join(elsewhere)} moved into tables: "
+                         + "; ".join(f"{key} is now {moved[key]}"  # type: ignore[index]
+                                     for key in elsewhere))
     for key, kind in ((None, cls), *tables.items()):
         table = data if key is None else data.get(key, {})
         if key is not None and not isinstance(table, (dict, kind)):

@@ -87,9 +87,10 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
         # budget is checked.
         step = min(chunk, iterations - done)
         if procedural:
-            if done % config.track_every == 0:
-                env.set_track(config.procedural_track(tracks))
-            step = min(step, config.track_every - done % config.track_every)
+            every = config.procedural.every
+            if done % every == 0:
+                env.set_track(config.procedural.draw(tracks))
+            step = min(step, every - done % every)
         if eval_every:
             step = min(step, eval_every - done % eval_every)
         runner.learn(step)

@@ -12,6 +12,7 @@ from tensordict import TensorDict
 
 import h2h_racing
 from h2h_racing.training.config import TrainConfig
+from h2h_racing.training.tracks import ProceduralTracks
 from h2h_racing.training.train import train
 from h2h_racing.policies import make_driver
 from h2h_racing.policies.trained import TrainedPolicy, shipped_policies
@@ -164,15 +165,32 @@ class TestConfig:
     def test_from_toml_fills_nested_tables(self, tmp_path: Path) -> None:
         path = tmp_path / "train.toml"
         path.write_text('track = "procedural"\nteacher = "racing_line"\nnum_envs = 64\n'
-                        'procedural_length = [15.0, 30.0]\nhidden_dims = [64, 64]\n'
+                        'hidden_dims = [64, 64]\n[procedural]\nlength = [15.0, 30.0]\n'
                         '[distill]\nlearning_rate = 0.0003\n[reward]\ncrash = -10.0\n'
                         '[ppo]\ngamma = 0.99\n')
         config = TrainConfig.from_toml(path)
         assert config.track == "procedural" and config.scripted_teacher
-        assert config.procedural_length == (15.0, 30.0) and config.hidden_dims == (64, 64)
+        assert config.procedural.length == (15.0, 30.0) and config.hidden_dims == (64, 64)
+        assert config.procedural.every == 10
         assert config.distill.learning_rate == 0.0003 and config.distill.num_learning_epochs == 1
         assert config.reward.crash == -10.0 and config.reward.progress == 1.0
         assert config.ppo.gamma == 0.99
+
+    def test_flat_keys_name_their_table_and_removed_options_say_why(self, tmp_path: Path) -> None:
+        path = tmp_path / "train.toml"
+        path.write_text('track = "procedural"\ntrack_every = 2\nprocedural_tight_share = 0.3\n')
+        with pytest.raises(ValueError) as err:
+            TrainConfig.from_toml(path)
+        assert str(err.value) == (f"{path}: procedural_tight_share, track_every moved into "
+                                  "tables: procedural_tight_share is now [procedural] "
+                                  "tight_share; track_every is now [procedural] every")
+        path.write_text('track = "procedural"\nvalidation_tracks = 4\n')
+        with pytest.raises(ValueError, match="validation_tracks was removed: held-out"):
+            TrainConfig.from_toml(path)
+        path.write_text('[procedural]\nevery = 0\n')
+        with pytest.raises(ValueError, match=rf"^{path}: \[procedural\] every must be an "
+                                             r"integer >= 1"):
+            TrainConfig.from_toml(path)
 
     def test_from_dict_refuses_unknown_keys_and_bad_values(self) -> None:
         with pytest.raises(ValueError, match=r"x.toml: unknown keys \['tracks'\]; allowed"):
@@ -359,10 +377,12 @@ class TestShippedPolicies:
 
 
 class TestProcedural:
-    """track="procedural" trains on a new random track every track_every iterations."""
+    """track="procedural" trains on a new random track every ``procedural.every``
+    iterations."""
 
     def test_tracks_change_between_chunks(self) -> None:
-        config = dataclasses.replace(SMALL, track="procedural", track_every=1)
+        config = dataclasses.replace(SMALL, track="procedural",
+                                     procedural=ProceduralTracks(every=1))
         runner = train(config, iterations=2)
         track = runner.env.track
         assert track.name.startswith("random-") and runner.env.core.track is track
@@ -373,14 +393,12 @@ class TestProcedural:
         from h2h_racing.training.tracks import random_training_track
 
         # Evaluating after every iteration splits training into 1-iteration chunks, but with
-        # track_every=2 the 2 iterations still run on the first random track only.
-        config = dataclasses.replace(SMALL, track="procedural", track_every=2, eval_every=1,
+        # every=2 the 2 iterations still run on the first random track only.
+        config = dataclasses.replace(SMALL, track="procedural",
+                                     procedural=ProceduralTracks(every=2), eval_every=1,
                                      eval_episodes=1, eval_race_seconds=1.0)
         runner = train(config, iterations=2, out=tmp_path)
-        first = random_training_track(np.random.default_rng(config.seed + 1),
-                                      config.procedural_varying_share,
-                                      config.procedural_min_radius, config.procedural_length,
-                                      config.procedural_reverse_share)
+        first = random_training_track(np.random.default_rng(config.seed + 1))
         assert runner.env.track.name == first.name
         # Procedural runs are evaluated on the fixed start track.
         assert len(list((tmp_path / "eval").glob("iter_*.rrd"))) == 2
@@ -397,10 +415,10 @@ class TestProcedural:
         assert np.allclose(cw.centre, np.concatenate([ccw.centre[:1], ccw.centre[:0:-1]]))
         assert float(cw.curvature_vertex.min()) == pytest.approx(
             -float(ccw.curvature_vertex.max()), rel=1e-6)
-        with pytest.raises(ValueError, match="procedural_reverse_share must be in"):
-            dataclasses.replace(SMALL, procedural_reverse_share=1.5)
-        with pytest.raises(ValueError, match="procedural_chicanes must be"):
-            dataclasses.replace(SMALL, procedural_chicanes=(3, 1))
+        with pytest.raises(ValueError, match=r"\[procedural\] reverse_share must be in"):
+            ProceduralTracks(reverse_share=1.5)
+        with pytest.raises(ValueError, match=r"\[procedural\] chicanes must be"):
+            ProceduralTracks(chicanes=(3, 1))
 
     def test_chicanes_reach_the_training_tracks(self) -> None:
         from h2h_racing.training.tracks import random_training_track
@@ -433,8 +451,11 @@ class TestProcedural:
         # A share of 0 draws nothing: the same tracks as without the option.
         assert [random_training_track(np.random.default_rng(s), tight_share=0.0).name
                 for s in range(6)] == [t.name for t in plain]
-        with pytest.raises(ValueError, match="procedural_tight_share must be in"):
-            dataclasses.replace(SMALL, procedural_tight_share=-0.1)
+        with pytest.raises(ValueError, match=r"\[procedural\] tight_share must be in"):
+            ProceduralTracks(tight_share=-0.1)
+        # The settings reach the draw: a share of 1 gives a tight track.
+        drawn = ProceduralTracks(tight_share=1.0).draw(np.random.default_rng(0))
+        assert drawn.name == tight[0].name
 
     def test_set_track_restarts_every_copy(self) -> None:
         from h2h_racing.training.vec_env import RacingVecEnv
@@ -473,13 +494,13 @@ def test_train_cli_config_file_and_overriding_flags(tmp_path: Path) -> None:
 
     path = tmp_path / "train.toml"
     path.write_text('track = "kidney"\nnum_envs = 4\neval_every = 0\nseed = 3\n'
-                    'procedural_tight_share = 0.25\n[reward]\ncrash = -10.0\ntime = -0.1\n')
+                    '[procedural]\ntight_share = 0.25\n[reward]\ncrash = -10.0\ntime = -0.1\n')
     out = tmp_path / "run"
     assert main(["train", "--config", str(path), "--track", "oval", "--reward", "time=-0.05",
                  "--iterations", "1", "--no-onnx", "--out", str(out)]) == 0
     saved = torch.load(out / "policy.pt", weights_only=True)["train_config"]
     assert saved["track"] == "oval" and saved["num_envs"] == 4 and saved["seed"] == 3
-    assert saved["procedural_tight_share"] == 0.25
+    assert saved["procedural"]["tight_share"] == 0.25
     # --reward changes the named term over the file's table; the file's crash stays.
     assert saved["reward"]["time"] == -0.05 and saved["reward"]["crash"] == -10.0
     with pytest.raises(SystemExit, match="no such file"):
