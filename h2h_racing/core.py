@@ -50,6 +50,10 @@ PARK_MARGIN = 1.0
 """Parked cars wait this far beyond the track's bounding box [m] (inside the projection
 grid's margin, so projecting them stays cheap)."""
 
+_BLOCKS = (("_car_vectors", race.CAR_VECTORS), ("_car_floats", race.CAR_FLOATS),
+           ("_car_counts", race.CAR_COUNTS), ("_car_flags", race.CAR_FLAGS))
+"""Each block of per-car fields and the fields in its rows, in order."""
+
 
 @dataclass
 class StepEvents:
@@ -190,33 +194,41 @@ class RaceCore:
     def _allocate(self) -> None:
         e, n, k, b = self.num_envs, self.num_cars, self.num_obstacles, self.num_bots
         zeros = np.zeros
-        self.position = zeros((e, n, 2))
+        # The per-car fields the compiled kernels read and write every step are rows of four
+        # blocks (race.CAR_*), so that a kernel takes a block, not an array per field (a
+        # compiled call costs about 80 ns per array argument). Every field is a view into
+        # its block: update them in place, never rebind them.
+        self._car_vectors = zeros((len(race.CAR_VECTORS), e, n, 2))
+        self._car_floats = zeros((len(race.CAR_FLOATS), e, n))
+        self._car_counts = zeros((len(race.CAR_COUNTS), e, n), dtype=np.int64)
+        self._car_flags = zeros((len(race.CAR_FLAGS), e, n), dtype=bool)
+        self.position = self._field("position")
         """Car positions in track coordinates, (E, N, 2), metres."""
-        self.yaw = zeros((e, n))
+        self.yaw = self._field("yaw")
         """Car headings, (E, N), radians."""
-        self.velocity = zeros((e, n, 2))
+        self.velocity = self._field("velocity")
         """World-frame velocities, (E, N, 2), m/s."""
-        self.yaw_rate = zeros((e, n))
+        self.yaw_rate = self._field("yaw_rate")
         """Yaw rates, (E, N), rad/s."""
-        self.steer = zeros((e, n))
+        self.steer = self._field("steer")
         """Front steering angles, (E, N), radians."""
-        self.speed = zeros((e, n))
+        self.speed = self._field("speed")
         """Forward (body-frame) speed, (E, N), m/s."""
         self.steer_command = zeros((e, n))
         """Last commanded steering angle, (E, N), radians."""
         self.speed_command = zeros((e, n))
         """Last commanded speed, (E, N), m/s."""
-        self.s = zeros((e, n))
+        self.s = self._field("s")
         """Arc position on the centre line, (E, N), metres in [0, L)."""
-        self.d = zeros((e, n))
+        self.d = self._field("d")
         """Signed lateral offset from the centre line, (E, N), metres, left positive."""
-        self.distance = zeros((e, n))
+        self.distance = self._field("distance")
         """Unwrapped race distance from the start line, (E, N), metres."""
-        self.start_distance = zeros((e, n))
+        self.start_distance = self._field("start_distance")
         """Race distance at the start of the episode, (E, N), metres."""
-        self.lap_origin = zeros((e, n))
+        self.lap_origin = self._field("lap_origin")
         """Distance from which laps are counted (start line in races), (E, N), metres."""
-        self.laps = zeros((e, n), dtype=np.int64)
+        self.laps = self._field("laps")
         """Completed laps, (E, N)."""
         self.lap_start_time = zeros((e, n))
         """Simulated time at which the current lap started, (E, N), seconds."""
@@ -230,9 +242,9 @@ class RaceCore:
         """Whether each lap was valid (resets within the limit)."""
         self.lap_resets = zeros((e, n), dtype=np.int64)
         """Resets during the current lap, (E, N)."""
-        self.resets = zeros((e, n), dtype=np.int64)
+        self.resets = self._field("resets")
         """Resets (re-placements) over the episode, (E, N)."""
-        self.penalties = zeros((e, n), dtype=np.int64)
+        self.penalties = self._field("penalties")
         """Time penalties received, (E, N)."""
         self.penalty_time = zeros((e, n))
         """Total penalty seconds received, (E, N)."""
@@ -246,28 +258,29 @@ class RaceCore:
         ``final_position`` and ``final_yaw`` hold its last pose on the track, (E, N)."""
         self.replace_distance = zeros((e, n))
         """Race distance at which a penalised car is put back, (E, N), metres."""
-        self.done = zeros((e, n), dtype=bool)
+        self.done = self._field("done")
         """The car's episode is over (finished, retired or truncated); it is parked."""
-        self.finished = zeros((e, n), dtype=bool)
+        self.finished = self._field("finished")
         """The car reached the lap target."""
         self.finish_time = np.full((e, n), np.inf)
         """Simulated time at which the car finished, (E, N), seconds."""
-        self.reverse_count = zeros((e, n), dtype=np.int64)
-        self.immobile_count = zeros((e, n), dtype=np.int64)
+        self.reverse_count = self._field("reverse_count")
+        self.immobile_count = self._field("immobile_count")
         self.off_tracks = zeros((e, n), dtype=np.int64)
         """Off-track infractions over the episode, (E, N)."""
         self.crashes = zeros((e, n), dtype=np.int64)
         """Crashes at fault over the episode, (E, N)."""
         self.collisions = zeros((e, n), dtype=np.int64)
         """Contacts of any kind over the episode, (E, N)."""
-        self.overtakes = zeros((e, n), dtype=np.int64)
+        self.overtakes = self._field("overtakes")
         """On-track passes made over the episode, (E, N)."""
-        self.overtaken = zeros((e, n), dtype=np.int64)
+        self.overtaken = self._field("overtaken")
         """Times passed over the episode, (E, N)."""
-        self.defences = zeros((e, n), dtype=np.int64)
+        self.defences = self._field("defences")
         """Defences over the episode, (E, N)."""
-        self.rank = np.ones((e, n), dtype=np.int64)
+        self.rank = self._field("rank")
         """Race position, 1 = leader, (E, N)."""
+        self.rank[...] = 1
         self.time = zeros(e)
         """Simulated time of each env copy, (E,), seconds."""
         self.steps = zeros(e, dtype=np.int64)
@@ -339,6 +352,28 @@ class RaceCore:
         self._defended = zeros((e, n, n), dtype=bool)
         self._faster = zeros((e, n, n), dtype=bool)
         self._gap = zeros((e, n, n))
+
+    def _field(self, name: str) -> npt.NDArray[np.generic]:
+        """The view of the per-car field ``name`` in its block (see ``_allocate``)."""
+        for block, names in _BLOCKS:
+            if name in names:
+                return getattr(self, block)[names.index(name)]
+        raise KeyError(name)
+
+    def __getstate__(self) -> dict[str, object]:
+        # Pickling copies every array on its own, which would cut the fields off their
+        # blocks: only the blocks travel, and the views are cut again on arrival.
+        state = self.__dict__.copy()
+        for _, names in _BLOCKS:
+            for name in names:
+                del state[name]
+        return state
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        self.__dict__.update(state)
+        for _, names in _BLOCKS:
+            for name in names:
+                setattr(self, name, self._field(name))
 
     @property
     def racing(self) -> BoolArray:
@@ -615,10 +650,9 @@ class RaceCore:
         off_track, reversed_, immobilised = flags = np.empty((3, e, n), dtype=bool)
         laps = np.empty((e, n), dtype=np.int64)
         event, out_of_time = race.advance_cars(
-            world.state, self.env_offset, self._wheels, racing, self.done, self.time, self.steps,
-            rules.time_limit, self.max_cycles, self.position, self.yaw, self.velocity,
-            self.yaw_rate, self.speed, self.s, self.d, self.distance, self.lap_origin, self.laps,
-            self.reverse_count, self.immobile_count, scalars, self._points, self._selected,
+            world.state, self.env_offset, self._wheels, racing, self.time, self.steps,
+            rules.time_limit, self.max_cycles, self._car_vectors, self._car_floats,
+            self._car_counts, self._car_flags, scalars, self._points, self._selected,
             self._wheel_first, self._scratch, grid, proj.start, proj.cert, proj.tab,
             proj.tab_full, widths, step_distance, flags, laps)
         contact_a, contact_b = world.pop_contacts()
@@ -785,7 +819,7 @@ class RaceCore:
             self.lap_valid[env][car].append(bool(valid[env, car]))
         self.lap_start_time = np.where(completed, cross, self.lap_start_time)
         self.lap_resets = self.lap_resets * ~completed
-        self.laps = np.where(completed, laps, self.laps)
+        np.copyto(self.laps, laps, where=completed)
         finished = np.zeros_like(completed)
         if rules.laps > 0:
             finished = completed & (self.laps >= rules.laps)

@@ -91,12 +91,10 @@ class InfoBuilder:
               collided: Any, overtakes: Any, overtaken: Any, lap_completed: Any,
               penalised: Any) -> None:
         _info_kernel(self.weights, racing, progress, off_track, crashed, collided, overtakes,
-                     overtaken, lap_completed, penalised, core.speed, core.distance,
-                     core.start_distance, self.percent_per_metre, core.last_lap_time,
-                     core.best_lap_time, core.time, core.laps, core.rank, core.overtakes,
-                     core.overtaken, core.defences, core.resets, core.penalties,
-                     core.frozen_until, core.finished, core.done, self._terms, self._reward,
-                     self._floats, self._ints, self._flags)
+                     overtaken, lap_completed, penalised, core._car_floats, core._car_counts,
+                     core._car_flags, self.percent_per_metre, core.last_lap_time,
+                     core.best_lap_time, core.time, core.frozen_until, self._terms,
+                     self._reward, self._floats, self._ints, self._flags)
 
     def _dicts(self, core: Any, index: dict[str, int],
                agents: list[str]) -> dict[str, dict[str, Any]]:
@@ -121,12 +119,16 @@ class InfoBuilder:
 
 @njit(cache=True)
 def _info_kernel(weights, racing, progress, off_track, crashed, collided, step_overtakes,
-                 step_overtaken, lap_completed, penalised, speed, distance, start_distance,
-                 percent_per_metre, last_lap, best_lap, time, laps, rank, overtakes, overtaken,
-                 defences, resets, penalties, frozen_until, finished, done, terms, reward,
+                 step_overtaken, lap_completed, penalised, car_floats, car_counts, car_flags,
+                 percent_per_metre, last_lap, best_lap, time, frozen_until, terms, reward,
                  floats, ints, flags):  # pragma: no cover
     # The reward terms (the same kernel as rewards.reward_terms) and the info fields of env
-    # copy 0, in one compiled call.
+    # copy 0, in one compiled call; the car fields come as the core's blocks (race.CAR_*).
+    speed, distance, start_distance = car_floats[3], car_floats[6], car_floats[7]
+    laps, resets, penalties = car_counts[0], car_counts[3], car_counts[4]
+    overtakes, overtaken = car_counts[5], car_counts[6]
+    defences, rank = car_counts[7], car_counts[8]
+    done, finished = car_flags[0], car_flags[1]
     rewards._reward_kernel(weights, progress, speed, racing, off_track, crashed, collided,
                            step_overtakes, step_overtaken, lap_completed, terms, reward)
     leader = distance[0, 0]

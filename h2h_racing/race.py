@@ -295,15 +295,29 @@ def pack_rule_scalars(dt: float, rules: Any, projector: Any, tables: Any,
                      wheel_reach], dtype=np.float64)
 
 
+CAR_VECTORS: tuple[str, ...] = ("position", "velocity")
+"""The rows of ``RaceCore``'s block of per-car 2-vectors (E, N, 2); the kernels unpack them
+by these indices."""
+CAR_FLOATS: tuple[str, ...] = ("yaw", "yaw_rate", "steer", "speed", "s", "d", "distance",
+                               "start_distance", "lap_origin")
+"""The rows of ``RaceCore``'s block of per-car floats (E, N)."""
+CAR_COUNTS: tuple[str, ...] = ("laps", "reverse_count", "immobile_count", "resets",
+                               "penalties", "overtakes", "overtaken", "defences", "rank")
+"""The rows of ``RaceCore``'s block of per-car counts (E, N), int64."""
+CAR_FLAGS: tuple[str, ...] = ("done", "finished")
+"""The rows of ``RaceCore``'s block of per-car flags (E, N)."""
+
+
 @njit(cache=True)
-def advance_cars(body_state, env_offset, wheels, racing, done, time, steps, time_limit,
-                 max_cycles, position, yaw, velocity, yaw_rate, speed, s, d, distance,
-                 lap_origin, laps, reverse_count, immobile_count, scalars, points, selected,
+def advance_cars(body_state, env_offset, wheels, racing, time, steps, time_limit, max_cycles,
+                 car_vectors, car_floats, car_counts, car_flags, scalars, points, selected,
                  wheel_first, scratch, proj_grid, proj_start, proj_cert, proj_tab, proj_tab_full,
                  widths, step_distance, flags, new_laps):  # pragma: no cover
     """Read the physics state back and apply the per-car rules, for every car at once.
 
-    The constants come packed (a compiled call costs about 80 ns per array argument):
+    The car fields come as ``RaceCore``'s blocks, rows as in ``CAR_VECTORS``, ``CAR_FLOATS``,
+    ``CAR_COUNTS`` and ``CAR_FLAGS``, and the constants come packed (a compiled call costs
+    about 80 ns per array argument):
     ``scalars`` = (dt, reversed_steps, immobilised_steps, immobile_distance, projector
     inv_cell, projector ny, projector window, lookup inv_ds, lap length, the track's smallest
     half-width, wheel_reach) (see ``pack_rule_scalars``); ``proj_grid`` = the projector's
@@ -336,6 +350,11 @@ def advance_cars(body_state, env_offset, wheels, racing, done, time, steps, time
         ``(event, out_of_time)``: whether any car went off track, reversed, was immobilised
         or completed a lap; whether any env copy reached ``time_limit`` or ``max_cycles``.
     """
+    position, velocity = car_vectors[0], car_vectors[1]
+    yaw, yaw_rate, speed = car_floats[0], car_floats[1], car_floats[3]
+    s, d, distance, lap_origin = car_floats[4], car_floats[5], car_floats[6], car_floats[8]
+    laps, reverse_count, immobile_count = car_counts[0], car_counts[1], car_counts[2]
+    done = car_flags[0]
     dt = scalars[0]
     reversed_steps = scalars[1]
     immobilised_steps = scalars[2]

@@ -72,8 +72,8 @@ def state_observation(core: RaceCore) -> npt.NDArray[np.float32]:
     lut = core.lookup
     out = np.empty((core.num_envs, core.num_cars,
                     state_size(cfg.opponent_slots, cfg.obstacle_slots)), dtype=np.float32)
-    _state_kernel(core.s, core.d, core.yaw, core.velocity, core.yaw_rate, core.steer,
-                  core.speed, core.rank, core._racing, core.done, core.obstacle_s,
+    _state_kernel(core._car_vectors, core._car_floats, core._car_counts, core._racing,
+                  core._car_flags, core.obstacle_s,
                   core.obstacle_d, core.bot_s, core.bot_d, core.bot_speed, lut.heading,
                   lut.curvature, lut.width_left, lut.width_right, lut.inv_ds, lut.length,
                   cfg.car.max_speed, cfg.car.max_steer,
@@ -100,12 +100,17 @@ def _take_nearest(distance):  # pragma: no cover
 
 
 @njit(cache=True)
-def _state_kernel(s, d, yaw, velocity, yaw_rate, steer, speed, rank, racing, done,
-                  obstacle_s, obstacle_d, bot_s, bot_d, bot_speed, heading, curvature,
-                  width_left, width_right, inv_ds, length, max_speed, max_steer, m_slots,
-                  k_slots, lookahead,
+def _state_kernel(car_vectors, car_floats, car_counts, racing, car_flags, obstacle_s,
+                  obstacle_d, bot_s, bot_d, bot_speed, heading, curvature, width_left,
+                  width_right, inv_ds, length, max_speed, max_steer, m_slots, k_slots, lookahead,
                   out):  # pragma: no cover
-    """Compiled loop over env copies and cars filling ``out`` (E, N, F)."""
+    """Compiled loop over env copies and cars filling ``out`` (E, N, F); the car fields come
+    as the core's blocks (rows as in ``race.CAR_*``)."""
+    velocity = car_vectors[1]
+    yaw, yaw_rate, steer, speed = car_floats[0], car_floats[1], car_floats[2], car_floats[3]
+    s, d = car_floats[4], car_floats[5]
+    rank = car_counts[8]
+    done = car_flags[0]
     num_envs, num_cars = s.shape
     num_obstacles = obstacle_s.shape[1]
     num_bots = bot_s.shape[1]
