@@ -281,6 +281,7 @@ class RaceCore:
         self.rank = self._field("rank")
         """Race position, 1 = leader, (E, N)."""
         self.rank[...] = 1
+        self._flatten_dynamics()
         self.time = zeros(e)
         """Simulated time of each env copy, (E,), seconds."""
         self.steps = zeros(e, dtype=np.int64)
@@ -360,6 +361,11 @@ class RaceCore:
                 return getattr(self, block)[names.index(name)]
         raise KeyError(name)
 
+    def _flatten_dynamics(self) -> None:
+        # The dynamics kernel's (C,) views of the car state, cut once (it runs every step).
+        self._flat_dynamics = (self.yaw.reshape(-1), self.velocity.reshape(-1, 2),
+                               self.yaw_rate.reshape(-1), self.steer.reshape(-1))
+
     def __getstate__(self) -> dict[str, object]:
         # Pickling copies every array on its own, which would cut the fields off their
         # blocks: only the blocks travel, and the views are cut again on arrival.
@@ -367,6 +373,7 @@ class RaceCore:
         for _, names in _BLOCKS:
             for name in names:
                 del state[name]
+        del state["_flat_dynamics"]
         return state
 
     def __setstate__(self, state: dict[str, object]) -> None:
@@ -374,6 +381,7 @@ class RaceCore:
         for _, names in _BLOCKS:
             for name in names:
                 setattr(self, name, self._field(name))
+        self._flatten_dynamics()
 
     @property
     def racing(self) -> BoolArray:
@@ -636,10 +644,9 @@ class RaceCore:
         # integration in pymunk.
         if self.num_bots:
             self._move_bots()
-        self.model.step_into(
-            self.yaw.reshape(-1), self.velocity.reshape(-1, 2), self.yaw_rate.reshape(-1),
-            self.steer.reshape(-1), steer_command.reshape(-1), speed_command.reshape(-1),
-            racing.reshape(-1), dt, world.command)
+        yaw, velocity, yaw_rate, steer = self._flat_dynamics
+        self.model.step_into(yaw, velocity, yaw_rate, steer, steer_command.reshape(-1),
+                             speed_command.reshape(-1), racing.reshape(-1), dt, world.command)
         world.step(dt, cfg.physics_substeps)
 
         # Phase 2: rules on the new snapshot, per car in one compiled pass.

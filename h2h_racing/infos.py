@@ -34,6 +34,16 @@ BOOL_KEYS: tuple[str, ...] = ("frozen", "finished", "off_track", "crashed", "col
                               "penalised", "parked")
 INFO_KEYS: tuple[str, ...] = FLOAT_KEYS + REWARD_KEYS + INT_KEYS + BOOL_KEYS
 """Every key of a car's default info, in order."""
+_INT_START = 8 * (len(FLOAT_KEYS) + len(REWARD_KEYS))
+_FLAG_START = _INT_START + 8 * len(INT_KEYS)
+_TABLE_DTYPE = np.dtype({
+    "names": list(INFO_KEYS),
+    "formats": (["f8"] * (len(FLOAT_KEYS) + len(REWARD_KEYS)) + ["i8"] * len(INT_KEYS)
+                + ["?"] * len(BOOL_KEYS)),
+    "offsets": list(range(0, _FLAG_START, 8)) + [_FLAG_START + k for k in range(len(BOOL_KEYS))],
+    # Whole 8-byte words, so that every float and int of every record stays aligned.
+    "itemsize": _FLAG_START + 8 * -(-len(BOOL_KEYS) // 8)})
+"""One car's info record: the fields of ``INFO_KEYS`` in order."""
 
 
 class InfoBuilder:
@@ -60,9 +70,11 @@ class InfoBuilder:
         self.percent_per_metre = 100.0 / lap_length
         self.weights = weights
         n = num_cars
-        self._floats = np.empty((n, len(FLOAT_KEYS) + len(REWARD_KEYS)))
-        self._ints = np.empty((n, len(INT_KEYS)), dtype=np.int64)
-        self._flags = np.empty((n, len(BOOL_KEYS)), dtype=bool)
+        # One record per car with every info field, so that a single tolist() gives each
+        # car's values as Python floats, ints and bools in INFO_KEYS order; the kernel fills
+        # it through three 2-D views (floats with the terms, ints, flags).
+        self._table = np.zeros(n, dtype=_TABLE_DTYPE)
+        self._cut_tables()
         self._terms = np.empty((len(rewards.TERMS), 1, n))
         self._reward = np.empty((1, n))
         # Stand-ins for a step's events at reset: nothing happened and nobody raced, so every
@@ -70,6 +82,23 @@ class InfoBuilder:
         self._no_flags = np.zeros((1, n), dtype=bool)
         self._no_progress = np.zeros((1, n))
         self._no_counts = np.zeros((1, n), dtype=np.int64)
+
+    def _cut_tables(self) -> None:
+        raw = self._table.view(np.uint8).reshape(len(self._table), _TABLE_DTYPE.itemsize)
+        self._floats = raw[:, :_INT_START].view(np.float64)
+        self._ints = raw[:, _INT_START:_FLAG_START].view(np.int64)
+        self._flags = raw[:, _FLAG_START:_FLAG_START + len(BOOL_KEYS)].view(np.bool_)
+
+    def __getstate__(self) -> dict[str, Any]:
+        # The views would travel as copies of their own: they are cut again on arrival.
+        state = self.__dict__.copy()
+        for key in ("_floats", "_ints", "_flags"):
+            del state[key]
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._cut_tables()
 
     def reset(self, core: Any, index: dict[str, int],
               agents: list[str]) -> dict[str, dict[str, Any]]:
@@ -98,22 +127,20 @@ class InfoBuilder:
 
     def _dicts(self, core: Any, index: dict[str, int],
                agents: list[str]) -> dict[str, dict[str, Any]]:
-        float_rows = self._floats.tolist()
-        int_rows = self._ints.tolist()
-        flag_rows = self._flags.tolist()
+        rows = self._table.tolist()
         keys = INFO_KEYS
         infos = {}
         for a in agents:
-            i = index[a]
-            # One zip over the concatenated rows: far cheaper than a key at a time.
-            infos[a] = dict(zip(keys, float_rows[i] + int_rows[i] + flag_rows[i]))
+            # One zip over the car's record: far cheaper than a key at a time.
+            infos[a] = dict(zip(keys, rows[index[a]]))
         if self.level == "full":
             lap_times = core.lap_times[0]
             first = len(FLOAT_KEYS)
             for a in agents:
                 i = index[a]
                 infos[a]["lap_times"] = list(lap_times[i])
-                infos[a]["reward_terms"] = dict(zip(rewards.TERMS, float_rows[i][first:]))
+                infos[a]["reward_terms"] = dict(zip(rewards.TERMS,
+                                                    rows[i][first:first + len(REWARD_KEYS)]))
         return infos
 
 

@@ -122,6 +122,7 @@ class PhysicsWorld:
         self._write_vel = np.zeros((total, 3), dtype=np.float64)
         self._write_state_buffer.set_float_buf(self._write.reshape(-1))
         self._write_vel_buffer.set_float_buf(self._write_vel.reshape(-1))
+        self._command = self._write_vel[:num_cars]
         self._bind_step()
         self._check_body_order(ids)
 
@@ -147,6 +148,7 @@ class PhysicsWorld:
         self._write_state_buffer.set_float_buf(self._write.reshape(-1))
         self._write_vel_buffer = pb.Buffer()
         self._write_vel_buffer.set_float_buf(self._write_vel.reshape(-1))
+        self._command = self._write_vel[: self.num_cars]
         self._bind_step()
 
     def _bind_step(self) -> None:
@@ -210,7 +212,7 @@ class PhysicsWorld:
 
         Fill it (e.g. straight from the dynamics kernel), then call :meth:`step`.
         """
-        return self._write_vel[: self.num_cars]
+        return self._command
 
     @property
     def bot_command(self) -> FloatArray:
