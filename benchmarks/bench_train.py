@@ -26,7 +26,7 @@ critic (rsl-rl's ``alg.compile``). Fewer epochs or mini-batches are fewer gradie
 sample: whether a run still learns as well is a training question, not answered here.
 
 With ``--camera`` also camera rows: PPO with the camera actor (``observations="camera"``) and
-distillation of the racing line into a camera-only student (``teacher="racing_line"``), each at
+distillation of the racing line into a camera-only student (``[imitation] teacher = "racing_line"``), each at
 today's 64 x 48 image and CNN and at a 32 x 24 image with a narrower CNN, with
 ``--camera-envs`` copies.
 """
@@ -48,6 +48,7 @@ os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
 import torch  # noqa: E402
 
 from h2h_racing.training.config import PPOConfig, TrainConfig  # noqa: E402
+from h2h_racing.training.imitation import ImitationConfig  # noqa: E402
 
 SETTINGS: dict[str, dict[str, Any]] = {
     "today": {},
@@ -71,6 +72,8 @@ OPT_IN = {"2 torch threads"}
 SMALL_CNN = {"output_channels": [8, 16, 8], "kernel_size": [5, 3, 3], "stride": [2, 2, 2],
              "padding": "zeros"}
 """The narrower CNN of the small camera rows (today's: 16, 32, 16 channels)."""
+DISTIL = ImitationConfig(teacher="racing_line")
+"""The distillation rows' teacher."""
 
 
 @dataclasses.dataclass
@@ -112,7 +115,7 @@ def build(name: str, config: TrainConfig, compile_models: bool = False,
             if "cnn_cfg" in cfg.get(section, {}):
                 cfg[section]["cnn_cfg"] = dict(cnn)
     with contextlib.redirect_stdout(io.StringIO()):  # rsl-rl prints the models
-        if config.teacher is None:
+        if config.imitation.teacher is None:
             runner = OnPolicyRunner(env, cfg, log_dir=None, device="cpu")
         else:
             runner = DistillationRunner(env, cfg, log_dir=None, device="cpu")
@@ -232,11 +235,11 @@ def main() -> None:
                                                         observations="camera", eval_every=0,
                                                         **small), SMALL_CNN),
             ("distill 64x48", TrainConfig(num_envs=args.camera_envs,
-                                          observations="camera_only", teacher="racing_line",
+                                          observations="camera_only", imitation=DISTIL,
                                           eval_every=0), None),
             ("distill 32x24, small CNN", TrainConfig(num_envs=args.camera_envs,
                                                      observations="camera_only",
-                                                     teacher="racing_line", eval_every=0,
+                                                     imitation=DISTIL, eval_every=0,
                                                      **small), SMALL_CNN),
         ]
         cameras = [build(name, config, cnn=cnn) for name, config, cnn in rows]

@@ -220,7 +220,7 @@ def _train_config(args: argparse.Namespace) -> object:
         except tomllib.TOMLDecodeError as err:
             raise SystemExit(f"error: --config {args.config!r} is not valid TOML: {err}") from None
     flags = {"track": "track", "obs": "observations", "rules": "rules", "init": "init",
-             "max_std": "max_std", "teacher": "teacher", "envs": "num_envs", "seed": "seed",
+             "max_std": "max_std", "envs": "num_envs", "seed": "seed",
              "reward_function": "reward_function", "model_metadata": "model_metadata",
              "simtrace": "simtrace_envs", "eval_every": "eval_every"}
     data.update({field: getattr(args, flag) for flag, field in flags.items()
@@ -229,10 +229,13 @@ def _train_config(args: argparse.Namespace) -> object:
         opponent = None if args.opponents == "none" else args.opponents
         data.update(opponent=opponent, num_cars=1 if opponent is None else 2,
                     learners=None if opponent is None else 1)
-    if args.reward:
-        reward = data.get("reward", {})
-        data["reward"] = {**(reward if isinstance(reward, dict) else {}),
-                          **_reward_terms(args.reward)}
+    # Flags of a table change that key over the file's table.
+    tables = {"reward": _reward_terms(args.reward) if args.reward else {},
+              "imitation": {} if args.teacher is None else {"teacher": args.teacher}}
+    for table, values in tables.items():
+        if values:
+            given = data.get(table, {})
+            data[table] = {**(given if isinstance(given, dict) else {}), **values}
     return TrainConfig.from_dict(data, source=args.config or "train's flags")
 
 

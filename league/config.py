@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from h2h_racing.training.imitation import ImitationConfig
 from h2h_racing.training.toml_types import build_tables, check_fields
 
 ROLES = ("main", "main_exploiter", "league_exploiter")
@@ -99,31 +100,6 @@ class LearnerTraining:
         if self.rules not in ("training", "race"):
             raise ValueError(f"[training] rules must be 'training' or 'race', got "
                              f"{self.rules!r}")
-
-
-@dataclass(frozen=True, kw_only=True)
-class Imitation:
-    """``[imitation]``: a behaviour-cloning term that keeps each learner near a scripted
-    driver (``TrainConfig.imitation_driver`` and ``imitation_coef``; ``ImitationPPO``)."""
-
-    driver: str | None = None
-    """The scripted driver (``h2h_racing.policies.scripted.TEACHERS``)."""
-    coef: float = 0.0
-    """Weight of the term (0: off). In run 12 (experiments/league/README.md) the main stopped
-    passing the blocker after 55 rounds, although its start, ``racing_line_student``, and its
-    teacher, ``racing_line``, pass it."""
-
-    def __post_init__(self) -> None:
-        from h2h_racing.policies.scripted import TEACHERS
-
-        if self.driver is not None and self.driver not in TEACHERS:
-            raise ValueError(f"[imitation] driver must be one of {TEACHERS}, got "
-                             f"{self.driver!r}")
-        if not (_is_number(self.coef) and self.coef >= 0):
-            raise ValueError(f"[imitation] coef must be a number >= 0, got {self.coef!r}")
-        if self.coef and self.driver is None:
-            raise ValueError(f"[imitation] coef needs a driver (a scripted driver: "
-                             f"{', '.join(TEACHERS)})")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -249,7 +225,7 @@ class MainRestore:
                              "best without restoring)")
 
 
-TABLES: dict[str, type] = {"training": LearnerTraining, "imitation": Imitation,
+TABLES: dict[str, type] = {"training": LearnerTraining, "imitation": ImitationConfig,
                            "matchmaking": Matchmaking, "snapshots": Snapshots,
                            "races": RaceSchedule, "main_restore": MainRestore}
 """``LeagueConfig``'s tables and the configs they fill."""
@@ -312,8 +288,12 @@ class LeagueConfig:
     penalised, overtakes rewarded."""
     training: LearnerTraining = field(default_factory=LearnerTraining)
     """``[training]``: each learner's PPO rounds."""
-    imitation: Imitation = field(default_factory=Imitation)
-    """``[imitation]``: the behaviour-cloning term (off by default)."""
+    imitation: ImitationConfig = field(default_factory=ImitationConfig)
+    """``[imitation]``: a behaviour-cloning term that keeps each learner near a scripted
+    ``driver`` with weight ``coef`` (off by default; no ``teacher``: the learners train with
+    PPO). In run 12 (experiments/league/README.md) the main stopped passing the blocker after
+    55 rounds, although its start, ``racing_line_student``, and its teacher, ``racing_line``,
+    pass it."""
     matchmaking: Matchmaking = field(default_factory=Matchmaking)
     """``[matchmaking]``: opponents of the learners' env copies."""
     snapshots: Snapshots = field(default_factory=Snapshots)
@@ -329,6 +309,10 @@ class LeagueConfig:
             if not isinstance(getattr(self, key), kind):
                 raise ValueError(f"LeagueConfig.{key} must be a {kind.__name__}, got "
                                  f"{getattr(self, key)!r}")
+        if self.imitation.teacher is not None:
+            raise ValueError(f"[imitation] teacher {self.imitation.teacher!r}: a league's "
+                             f"learners train with PPO; keep them near a scripted driver with "
+                             f"[imitation] driver and coef instead")
         if not self.learners or not any(s.role == "main" for s in self.learners):
             raise ValueError("a league needs at least one learner with role 'main'")
         names = [s.name for s in self.learners]
@@ -399,7 +383,6 @@ class LeagueConfig:
                            num_steps_per_env=training.num_steps_per_env,
                            init_std=training.init_std, max_std=training.max_std,
                            reward=RewardConfig(**self.reward), seed=seed,
-                           rules=training.rules, imitation_driver=self.imitation.driver,
-                           imitation_coef=self.imitation.coef,
+                           rules=training.rules, imitation=self.imitation,
                            ppo=PPOConfig(learning_rate=training.learning_rate,
                                          entropy_coef=training.entropy_coef))

@@ -100,7 +100,7 @@ def make_env(config: Any, opponent: Any) -> Any:
 
     return RacingVecEnv(config.env_config(), num_envs=config.num_envs, learners=1,
                         opponent=opponent, observations=config.observations, seed=config.seed,
-                        expert=config.expert())
+                        expert=config.imitation.expert())
 
 
 _STATE_FILES = ("latest.pt", "runner.pt")

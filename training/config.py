@@ -17,7 +17,8 @@ from pathlib import Path
 from typing import Any, Literal
 
 from h2h_racing.config import EnvConfig, RaceRules, RewardConfig
-from h2h_racing.training.teachers import SCRIPTED_TEACHERS, load_teacher
+from h2h_racing.training.imitation import SCRIPTED_TEACHERS, ImitationConfig
+from h2h_racing.training.teachers import load_teacher
 from h2h_racing.training.toml_types import build_tables
 from h2h_racing.training.tracks import ProceduralTracks
 from h2h_racing.training.vec_env import OBSERVATIONS, PoolOpponent, RacingVecEnv
@@ -96,9 +97,11 @@ class DistillConfig:
 
 
 TABLES: dict[str, type] = {"ppo": PPOConfig, "distill": DistillConfig, "reward": RewardConfig,
-                           "procedural": ProceduralTracks}
+                           "procedural": ProceduralTracks, "imitation": ImitationConfig}
 """``TrainConfig``'s tables and the configs they fill."""
-MOVED = {"track_every": "[procedural] every",
+MOVED = {"track_every": "[procedural] every", "teacher": "[imitation] teacher",
+         "teacher_options": "[imitation] options", "imitation_driver": "[imitation] driver",
+         "imitation_coef": "[imitation] coef",
          **{f"procedural_{name}": f"[procedural] {name}"
             for name in ("varying_share", "length", "min_radius", "reverse_share", "chicanes",
                          "tight_share")}}
@@ -176,32 +179,11 @@ class TrainConfig:
     """A policy (shipped name or ``policy.pt``) whose actor weights training starts from
     (fine-tuning; its observations and hidden sizes must be this run's); None starts from
     random weights. The critic always starts fresh."""
-    teacher: str | None = None
-    """What to imitate with rsl-rl's ``Distillation`` instead of training with PPO: a
-    state-observation policy (shipped name or ``policy.pt``) distilled into a camera actor,
-    or a scripted driver (``SCRIPTED_TEACHERS``, e.g. ``"racing_line"``) imitated by any
-    actor. The student drives (DAgger: it learns on the states its own driving reaches) and is
-    regressed onto the teacher's actions there. The fast way to a camera policy on a CPU (no
-    critic, one pass per rollout), and a scripted teacher brings what it knows of every track
-    (``racing_line`` laps every shipped and generated track) to a state policy before PPO
-    fine-tunes it (``init``), as AlphaStar's agents start from supervised learning. None
-    trains with PPO."""
-    teacher_options: dict[str, float] = field(default_factory=dict)
-    """Constructor arguments of the scripted driver that labels actions (a scripted
-    ``teacher`` or the ``imitation_driver``), e.g. ``{"grip_factor": 0.6, "margin": 0.2}`` for
-    a ``RacingLine`` that corners at 60 % of the grip and keeps 0.2 m from the borders."""
-    imitation_driver: str | None = None
-    """A scripted driver (``SCRIPTED_TEACHERS``) that PPO's actor is kept near with
-    ``imitation_coef``."""
-    imitation_coef: float = 0.0
-    """Weight of a behaviour-cloning term in PPO (``ImitationPPO``): after each PPO update the
-    actor's mean actions in the rollout's states are regressed (MSE, one pass over the
-    mini-batches) onto the ``imitation_driver``'s actions in those states, as AlphaStar's
-    agents are kept near the supervised policy by a KL term (for Gaussians of equal std, a
-    squared distance of the means): reinforcement learning improves on the driver without
-    forgetting what it does well. 0 turns it off."""
+    imitation: ImitationConfig = field(default_factory=ImitationConfig)
+    """``[imitation]``: a teacher to distil instead of PPO, or a scripted driver that PPO's
+    actor is kept near (nothing by default)."""
     distill: DistillConfig = field(default_factory=DistillConfig)
-    """Distillation hyper-parameters (used with ``teacher``)."""
+    """Distillation hyper-parameters (used with ``imitation.teacher``)."""
     rules: Literal["training", "race"] = "training"
     """``"training"``: DeepRacer's training rules, an infraction ends the car's episode;
     ``"race"``: race rules, an infraction costs a time penalty (the car is frozen, the clock
@@ -215,24 +197,12 @@ class TrainConfig:
         if self.observations not in OBSERVATIONS:
             raise ValueError(f"TrainConfig.observations must be one of {OBSERVATIONS}, got "
                              f"{self.observations!r}")
-        if not (isinstance(self.imitation_coef, (int, float)) and self.imitation_coef >= 0):
-            raise ValueError(f"TrainConfig.imitation_coef must be a number >= 0, got "
-                             f"{self.imitation_coef!r}")
-        if self.imitation_driver is not None and self.imitation_driver not in SCRIPTED_TEACHERS:
-            raise ValueError(f"TrainConfig.imitation_driver must be one of {SCRIPTED_TEACHERS}, "
-                             f"got {self.imitation_driver!r}")
-        if self.imitation_coef and (self.imitation_driver is None or self.teacher is not None):
-            raise ValueError("TrainConfig.imitation_coef keeps PPO's actor near a scripted "
-                             "driver: name it in imitation_driver (and leave teacher unset: a "
-                             "teacher replaces PPO by imitation)")
-        if self.teacher_options:
-            if not self.scripted_teacher and self.imitation_driver is None:
-                raise ValueError(f"TrainConfig.teacher_options are arguments of a scripted "
-                                 f"teacher or imitation_driver ({', '.join(SCRIPTED_TEACHERS)}), "
-                                 f"but teacher is {self.teacher!r}")
-            self.expert()
-        if self.teacher is not None and self.observations == "state" and not self.scripted_teacher:
-            raise ValueError("TrainConfig.teacher distils a state policy into a camera policy: "
+        if not isinstance(self.imitation, ImitationConfig):
+            raise ValueError(f"TrainConfig.imitation must be an ImitationConfig, got "
+                             f"{self.imitation!r}")
+        teacher = self.imitation.teacher
+        if teacher is not None and self.observations == "state" and not self.scripted_teacher:
+            raise ValueError("[imitation] teacher distils a state policy into a camera policy: "
                              "set observations to 'camera_only' or 'camera' (a state student "
                              "of a state teacher would only copy it), or imitate a scripted "
                              f"driver ({', '.join(SCRIPTED_TEACHERS)})")
@@ -271,8 +241,9 @@ class TrainConfig:
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "train config") -> TrainConfig:
         """Build from plain data (a parsed TOML file): top-level keys are this class's fields,
-        the tables ``[ppo]``, ``[distill]``, ``[reward]`` and ``[procedural]`` fill
-        ``PPOConfig``, ``DistillConfig``, ``RewardConfig`` and ``ProceduralTracks``; unknown
+        the tables ``[ppo]``, ``[distill]``, ``[reward]``, ``[procedural]`` and ``[imitation]``
+        fill ``PPOConfig``, ``DistillConfig``, ``RewardConfig``, ``ProceduralTracks`` and
+        ``ImitationConfig``; unknown
         keys raise ``ValueError`` (a key of the earlier flat layout names its table)."""
         values = build_tables(cls, data, source, TABLES, moved=MOVED, removed=REMOVED)
         try:
@@ -297,22 +268,8 @@ class TrainConfig:
 
     @property
     def scripted_teacher(self) -> bool:
-        """Whether ``teacher`` names a scripted driver (imitated through the ``expert`` group)."""
-        return self.teacher in SCRIPTED_TEACHERS
-
-    def expert(self) -> Any:
-        """The scripted driver that labels actions (the env's ``expert`` group): a scripted
-        ``teacher``, else the ``imitation_driver``, with ``teacher_options``; or None."""
-        name = self.teacher if self.scripted_teacher else self.imitation_driver
-        if name is None:
-            return None
-        from h2h_racing.policies import make_driver
-
-        try:
-            return make_driver(name, **self.teacher_options)
-        except TypeError as err:
-            raise ValueError(f"TrainConfig.teacher_options {self.teacher_options!r} do not fit "
-                             f"the {name!r} driver: {err}") from None
+        """Whether ``imitation.teacher`` names a scripted driver."""
+        return self.imitation.scripted_teacher
 
     def env_config(self) -> EnvConfig:
         """The env the learners race in: ``rules`` (DeepRacer's training rules by default: an
@@ -348,12 +305,13 @@ class TrainConfig:
         """rsl-rl config of the actor (the student when distilling): an MLP on the state, a CNN
         (then an MLP) with a camera."""
         camera = self.observations != "state"
-        init_std = self.distill.student_std if self.teacher is not None else self.init_std
+        distilling = self.imitation.teacher is not None
+        init_std = self.distill.student_std if distilling else self.init_std
         actor: dict[str, Any] = {
             "class_name": "CNNModel" if camera else "MLPModel",
             "hidden_dims": list(self.hidden_dims), "obs_normalization": True,
             "distribution_cfg": {"class_name": "GaussianDistribution", "init_std": init_std}}
-        if self.max_std is not None and self.teacher is None:
+        if self.max_std is not None and not distilling:
             actor["distribution_cfg"]["std_range"] = [STD_FLOOR, float(self.max_std)]
             actor["distribution_cfg"]["init_std"] = min(init_std, float(self.max_std))
         if camera:
@@ -369,7 +327,7 @@ class TrainConfig:
         whose teacher model config comes from the teacher's policy dict (``load_teacher``;
         loaded here unless given)."""
         actor = self.actor_dict()
-        if self.teacher is not None:
+        if self.imitation.teacher is not None:
             if self.scripted_teacher:
                 teacher_groups = ["expert"]
                 teacher_model = {"class_name": "h2h_racing.training.teachers:ScriptedTeacher"}
@@ -400,9 +358,9 @@ class TrainConfig:
             critic_groups = ["critic", "camera"]
         algorithm: dict[str, Any] = {"class_name": "PPO", "schedule": "adaptive",
                                      **dataclasses.asdict(self.ppo)}
-        if self.imitation_coef:
+        if self.imitation.coef:
             algorithm.update(class_name="h2h_racing.training.ppo:ImitationPPO",
-                             imitation_coef=float(self.imitation_coef))
+                             imitation_coef=float(self.imitation.coef))
         elif self.max_std is not None:
             algorithm["class_name"] = "h2h_racing.training.ppo:BoundedStdPPO"
         return {
@@ -427,4 +385,4 @@ class TrainConfig:
                             opponent=opponent, observations=self.observations,
                             seed=self.seed, device=device, reward_function=self.reward_function,
                             simtrace=log, simtrace_envs=max(self.simtrace_envs, 1),
-                            expert=self.expert())
+                            expert=self.imitation.expert())

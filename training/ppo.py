@@ -1,6 +1,6 @@
 """rsl-rl's PPO with the policy's standard deviation held in bounds (``BoundedStdPPO``,
 ``TrainConfig.max_std``) and with a behaviour-cloning step towards a scripted driver
-(``ImitationPPO``, ``TrainConfig.imitation_coef``). rsl-rl builds them from the
+(``ImitationPPO``, ``[imitation] coef``). rsl-rl builds them from the
 ``algorithm`` section's ``class_name`` (``TrainConfig.rsl_rl_dict``).
 """
 
@@ -39,7 +39,7 @@ class BoundedStdPPO(PPO):  # type: ignore[misc]
 
 class ImitationPPO(BoundedStdPPO):
     """rsl-rl's PPO (with ``BoundedStdPPO``'s std projection) plus a behaviour-cloning step
-    (``TrainConfig.imitation_coef``): after each PPO update, one pass over the rollout in
+    (``[imitation] coef``): after each PPO update, one pass over the rollout in
     ``num_mini_batches`` mini-batches of the loss ``imitation_coef * mean((mu(o) - a*)^2)``,
     where ``mu(o)`` is the actor's mean action and ``a*`` the scripted driver's action in the
     same state (the ``expert`` observation group the env adds). With equal standard
@@ -67,7 +67,7 @@ class ImitationPPO(BoundedStdPPO):
         obs = self.storage.observations.flatten(0, 1)
         if "expert" not in obs.keys():
             raise ValueError("ImitationPPO needs the env's 'expert' observation group "
-                             "(RacingVecEnv(expert=...); TrainConfig.imitation_driver)")
+                             "(RacingVecEnv(expert=...); [imitation] driver)")
         actor = self.get_policy()
         rows = obs.batch_size[0]
         size = max(1, rows // self.num_mini_batches)

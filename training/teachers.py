@@ -1,4 +1,4 @@
-"""Distillation teachers (``TrainConfig.teacher``): a policy file's actor with its actions
+"""Distillation teachers (``[imitation] teacher``): a policy file's actor with its actions
 clipped (``ClippedTeacher``), a scripted driver read from the env's ``expert`` observation
 group (``ScriptedTeacher``), and the check that a teacher's policy file fits a run
 (``load_teacher``). rsl-rl builds the teachers from their ``class_name``
@@ -20,14 +20,8 @@ try:
 except ImportError as _error:
     raise missing_extra("train", "training", _error) from None
 
-from h2h_racing.policies.scripted import TEACHERS  # noqa: E402
-
 if TYPE_CHECKING:
     from h2h_racing.training.config import TrainConfig
-
-SCRIPTED_TEACHERS = TEACHERS
-"""Scripted drivers a ``TrainConfig.teacher`` or ``imitation_driver`` can name (their actions
-reach the learner through the env's ``expert`` observation group)."""
 
 
 class ClippedTeacher(MLPModel):  # type: ignore[misc]
@@ -79,22 +73,23 @@ class ScriptedTeacher(torch.nn.Module):
 
 
 def load_teacher(config: TrainConfig) -> dict[str, Any]:
-    """Load ``config.teacher``'s policy dict and check that it can teach in ``config``'s env: a
-    state-observation policy whose state vector has this env's layout.
+    """Load ``config.imitation.teacher``'s policy dict and check that it can teach in
+    ``config``'s env: a state-observation policy whose state vector has this env's layout.
 
     Raises:
         FileNotFoundError, ValueError: With what is wrong and what to do.
     """
     from h2h_racing.policies.trained import load_policy_payload
 
-    payload = load_policy_payload(config.teacher)  # type: ignore[arg-type]
+    teacher = config.imitation.teacher
+    payload = load_policy_payload(teacher)  # type: ignore[arg-type]
     if payload["observations"] != "state":
-        raise ValueError(f"teacher {config.teacher!r} drives from {payload['observations']!r} "
+        raise ValueError(f"teacher {teacher!r} drives from {payload['observations']!r} "
                          "observations; a teacher must be a state-observation policy")
     env = config.env_config()
     for key in ("opponent_slots", "obstacle_slots"):
         if payload["env_config"][key] != getattr(env, key):
-            raise ValueError(f"teacher {config.teacher!r} was trained with {key}="
+            raise ValueError(f"teacher {teacher!r} was trained with {key}="
                              f"{payload['env_config'][key]}, this run's env has {key}="
                              f"{getattr(env, key)}: its state vector would not fit")
     return payload

@@ -6,7 +6,7 @@ logs and checkpoints in the output folder, then writes ``policy.pt``
 actor (``evaluate_during_training``): figures into the tensorboard log under ``Eval/`` and a
 rerun recording of a race to ``<out>/eval/iter_<n>.rrd``.
 
-With ``TrainConfig.teacher`` it imitates a teacher with rsl-rl's ``Distillation`` instead
+With ``[imitation] teacher`` it imitates a teacher with rsl-rl's ``Distillation`` instead
 (DAgger: the student drives, the teacher labels the states it reaches): a state policy
 distilled into a camera policy, or a scripted driver (``racing_line``) whose actions the env
 computes in the learner's place (``h2h_racing.training.teachers``).
@@ -40,7 +40,7 @@ from h2h_racing.training.teachers import load_teacher  # noqa: E402
 
 def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
           minutes: float | None = None) -> Any:
-    """Train with PPO (or distil ``config.teacher``); return the rsl-rl runner.
+    """Train with PPO (or distil ``config.imitation.teacher``); return the rsl-rl runner.
 
     Args:
         config: What to train.
@@ -57,7 +57,7 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
     torch.set_num_threads(config.torch_threads)
     env = config.make_env(simtrace=None if out is None else Path(out) / "simtrace")
     log_dir = None if out is None else str(Path(out))
-    if config.teacher is None:
+    if config.imitation.teacher is None:
         runner = OnPolicyRunner(env, config.rsl_rl_dict(), log_dir=log_dir, device="cpu")
     elif config.scripted_teacher:
         runner = DistillationRunner(env, config.rsl_rl_dict(), log_dir=log_dir, device="cpu")
@@ -68,7 +68,7 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
                                     device="cpu")
         # The teacher is the policy file's actor: same model config, so its weights (and its
         # observation normaliser's statistics) load strictly.
-        load_actor(runner.alg.teacher, teacher, f"teacher {config.teacher!r}")
+        load_actor(runner.alg.teacher, teacher, f"teacher {config.imitation.teacher!r}")
         runner.alg.teacher_loaded = True
     if config.init is not None:
         load_init(runner, config.init)

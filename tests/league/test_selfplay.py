@@ -192,18 +192,24 @@ def test_imitation_term_reaches_the_learners():
 
     config = LeagueConfig.from_toml(EXPERIMENTS_DIR / "guided.toml")
     train_config = config.train_config(seed=0)
-    assert (train_config.imitation_driver, train_config.imitation_coef) == ("racing_line", 2.0)
+    assert (train_config.imitation.driver, train_config.imitation.coef) == ("racing_line", 2.0)
     assert train_config.rsl_rl_dict()["algorithm"]["class_name"].endswith(":ImitationPPO")
     # The learners' envs give the racing line's actions as the expert group.
     small = dataclasses.replace(train_config, num_envs=2, track="oval")
     env = make_env(small, PoolOpponent(("blocker", "pure_pursuit")))
     assert env.get_observations()["expert"].shape == (2, 2)
-    with pytest.raises(ValueError, match=r"\[imitation\] coef needs a driver"):
+    with pytest.raises(ValueError, match=r"\[imitation\] coef keeps PPO's actor near a "
+                                         r"scripted driver: name it in driver"):
         dataclasses.replace(config.imitation, driver=None)
     with pytest.raises(ValueError, match=r"\[imitation\] driver must be one of"):
         dataclasses.replace(config.imitation, driver="random")
     with pytest.raises(ValueError, match=r"\[imitation\] coef must be a number >= 0"):
         dataclasses.replace(config.imitation, coef=-2.0)
+    # The learners train with PPO: a distillation teacher has no place in a league.
+    with pytest.raises(ValueError, match=r"\[imitation\] teacher 'racing_line': a league's "
+                                         r"learners train with PPO"):
+        dataclasses.replace(config, imitation=dataclasses.replace(
+            config.imitation, coef=0.0, driver=None, teacher="racing_line"))
 
 
 def test_anchor_weighting_favours_the_anchor_the_learner_loses_to(tmp_path):

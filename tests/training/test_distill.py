@@ -13,6 +13,7 @@ from tensordict import TensorDict
 import h2h_racing
 from h2h_racing.config import CameraConfig
 from h2h_racing.training.config import DistillConfig, TrainConfig
+from h2h_racing.training.imitation import ImitationConfig
 from h2h_racing.training.policy_file import policy_payload
 from h2h_racing.training.train import train
 from h2h_racing.training.vec_env import RacingVecEnv
@@ -64,14 +65,14 @@ class TestCameraOnlyObservations:
 @pytest.fixture(scope="module")
 def distilled(teacher: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, object]:
     out = tmp_path_factory.mktemp("student")
-    config = dataclasses.replace(STUDENT_CONFIG, teacher=str(teacher),
+    config = dataclasses.replace(STUDENT_CONFIG, imitation=ImitationConfig(teacher=str(teacher)),
                                  distill=DistillConfig(gradient_length=4))
     runner = train(config, iterations=2, out=out)
     return out / "policy.pt", runner
 
 
 class TestDistillation:
-    """TrainConfig.teacher: rsl-rl's Distillation regresses the student onto the teacher."""
+    """[imitation] teacher: rsl-rl's Distillation regresses the student onto the teacher."""
 
     def test_teacher_is_the_policy_file(self, teacher: Path,
                                         distilled: tuple[Path, object]) -> None:
@@ -109,7 +110,7 @@ class TestDistillation:
         payload = torch.load(distilled[0], weights_only=True)
         assert payload["observations"] == "camera_only"
         assert payload["obs_groups"] == ["camera", "motion"]
-        assert payload["train_config"]["teacher"].endswith("policy.pt")
+        assert payload["train_config"]["imitation"]["teacher"].endswith("policy.pt")
         # The student drives with the small fixed noise of DistillConfig.student_std.
         assert payload["actor_cfg"]["distribution_cfg"]["init_std"] == 0.1
 
@@ -146,7 +147,8 @@ class TestDistillation:
         # its imitation error must fall: compare the mean squared action error against the
         # teacher, untrained and after 16 iterations, on the states the trained student drives
         # into (the distribution distillation trains on).
-        config = dataclasses.replace(STUDENT_CONFIG, observations="camera", teacher=str(teacher),
+        config = dataclasses.replace(STUDENT_CONFIG, observations="camera",
+                                     imitation=ImitationConfig(teacher=str(teacher)),
                                      distill=DistillConfig(learning_rate=3e-3))
         untrained = train(config, iterations=0)
         trained = train(config, iterations=16)
@@ -164,7 +166,7 @@ class TestDistillation:
 class TestScriptedTeacher:
     """A scripted driver as the teacher: the student imitates it through the expert group."""
 
-    CONFIG = dataclasses.replace(TEACHER_CONFIG, teacher="racing_line",
+    CONFIG = dataclasses.replace(TEACHER_CONFIG, imitation=ImitationConfig(teacher="racing_line"),
                                  distill=DistillConfig(learning_rate=3e-3))
 
     def test_state_student_of_a_scripted_teacher_is_allowed(self) -> None:
@@ -182,17 +184,16 @@ class TestScriptedTeacher:
         assert torch.equal(runner.alg.teacher(obs), obs["expert"])
 
     def test_teacher_options_make_the_expert(self) -> None:
-        config = dataclasses.replace(self.CONFIG, teacher_options={"margin": 0.2,
-                                                                   "grip_factor": 0.6})
+        config = dataclasses.replace(self.CONFIG, imitation=ImitationConfig(
+            teacher="racing_line", options={"margin": 0.2, "grip_factor": 0.6}))
         expert = config.make_env().expert
         assert (expert.margin, expert.grip_factor) == (0.2, 0.6)
         with pytest.raises(ValueError, match="do not fit the 'racing_line' driver"):
-            dataclasses.replace(self.CONFIG, teacher_options={"grip": 0.6})
+            ImitationConfig(teacher="racing_line", options={"grip": 0.6})
         with pytest.raises(ValueError, match="grip_factor must be in"):
-            dataclasses.replace(self.CONFIG, teacher_options={"grip_factor": 1.5})
+            ImitationConfig(teacher="racing_line", options={"grip_factor": 1.5})
         with pytest.raises(ValueError, match="are arguments of a scripted teacher"):
-            dataclasses.replace(STUDENT_CONFIG, teacher="ppo_generalist",
-                                teacher_options={"margin": 0.2})
+            ImitationConfig(teacher="ppo_generalist", options={"margin": 0.2})
 
     def test_teacher_refuses_other_groups(self) -> None:
         from h2h_racing.training.teachers import ScriptedTeacher
@@ -224,10 +225,11 @@ class TestTeacherChecks:
     def test_state_student_refused(self, teacher: Path) -> None:
         with pytest.raises(ValueError, match="set observations to 'camera_only'.*or imitate "
                                              "a scripted driver \\(racing_line"):
-            TrainConfig(teacher=str(teacher))
+            TrainConfig(imitation=ImitationConfig(teacher=str(teacher)))
 
     def test_missing_teacher(self, tmp_path: Path) -> None:
-        config = dataclasses.replace(STUDENT_CONFIG, teacher=str(tmp_path / "nope.pt"))
+        config = dataclasses.replace(STUDENT_CONFIG,
+                                     imitation=ImitationConfig(teacher=str(tmp_path / "nope.pt")))
         with pytest.raises(FileNotFoundError, match="neither a shipped policy"):
             config.rsl_rl_dict()
 
@@ -235,7 +237,7 @@ class TestTeacherChecks:
         runner = train(STUDENT_CONFIG, iterations=0)
         path = tmp_path / "camera.pt"
         torch.save(policy_payload(runner, STUDENT_CONFIG), path)
-        config = dataclasses.replace(STUDENT_CONFIG, teacher=str(path))
+        config = dataclasses.replace(STUDENT_CONFIG, imitation=ImitationConfig(teacher=str(path)))
         with pytest.raises(ValueError, match="must be a state-observation policy"):
             config.rsl_rl_dict()
 
@@ -245,7 +247,7 @@ class TestTeacherChecks:
         payload["env_config"]["opponent_slots"] = 3
         path = tmp_path / "slots.pt"
         torch.save(payload, path)
-        config = dataclasses.replace(STUDENT_CONFIG, teacher=str(path))
+        config = dataclasses.replace(STUDENT_CONFIG, imitation=ImitationConfig(teacher=str(path)))
         with pytest.raises(ValueError, match="opponent_slots=3, this run's env has "
                                              "opponent_slots=2"):
             config.rsl_rl_dict()

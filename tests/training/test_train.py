@@ -12,6 +12,7 @@ from tensordict import TensorDict
 
 import h2h_racing
 from h2h_racing.training.config import TrainConfig
+from h2h_racing.training.imitation import ImitationConfig
 from h2h_racing.training.tracks import ProceduralTracks
 from h2h_racing.training.train import train
 from h2h_racing.policies import make_driver
@@ -164,8 +165,9 @@ class TestConfig:
 
     def test_from_toml_fills_nested_tables(self, tmp_path: Path) -> None:
         path = tmp_path / "train.toml"
-        path.write_text('track = "procedural"\nteacher = "racing_line"\nnum_envs = 64\n'
-                        'hidden_dims = [64, 64]\n[procedural]\nlength = [15.0, 30.0]\n'
+        path.write_text('track = "procedural"\nnum_envs = 64\nhidden_dims = [64, 64]\n'
+                        '[imitation]\nteacher = "racing_line"\n'
+                        '[procedural]\nlength = [15.0, 30.0]\n'
                         '[distill]\nlearning_rate = 0.0003\n[reward]\ncrash = -10.0\n'
                         '[ppo]\ngamma = 0.99\n')
         config = TrainConfig.from_toml(path)
@@ -247,10 +249,10 @@ class TestInit:
 
 
 class TestImitationPPO:
-    """TrainConfig.imitation_coef: PPO plus a behaviour-cloning step towards a scripted
+    """[imitation] coef: PPO plus a behaviour-cloning step towards a scripted
     driver (the env's expert group)."""
 
-    CONFIG = dataclasses.replace(SMALL, imitation_driver="racing_line", imitation_coef=5.0)
+    CONFIG = dataclasses.replace(SMALL, imitation=ImitationConfig(driver="racing_line", coef=5.0))
 
     def test_config_picks_the_algorithm_and_the_expert(self) -> None:
         algorithm = self.CONFIG.rsl_rl_dict()["algorithm"]
@@ -292,14 +294,14 @@ class TestImitationPPO:
         assert all(torch.equal(a, b) for a, b in zip(before, after))
 
     def test_bad_settings_rejected(self) -> None:
-        with pytest.raises(ValueError, match="name it in imitation_driver"):
-            dataclasses.replace(SMALL, imitation_coef=1.0)
-        with pytest.raises(ValueError, match="imitation_driver must be one of"):
-            dataclasses.replace(SMALL, imitation_driver="random")
-        with pytest.raises(ValueError, match="imitation_coef must be a number >= 0"):
-            dataclasses.replace(self.CONFIG, imitation_coef=-1.0)
+        with pytest.raises(ValueError, match="name it in driver"):
+            ImitationConfig(coef=1.0)
+        with pytest.raises(ValueError, match=r"\[imitation\] driver must be one of"):
+            ImitationConfig(driver="random")
+        with pytest.raises(ValueError, match=r"\[imitation\] coef must be a number >= 0"):
+            ImitationConfig(driver="racing_line", coef=-1.0)
         with pytest.raises(ValueError, match="leave teacher unset"):
-            dataclasses.replace(self.CONFIG, teacher="racing_line")
+            ImitationConfig(driver="racing_line", coef=5.0, teacher="racing_line")
 
 
 class TestMaxStd:

@@ -1,0 +1,85 @@
+"""What a learner imitates: ``ImitationConfig``, the ``[imitation]`` table of a training run
+(``TrainConfig.imitation``) and of a league (``LeagueConfig.imitation``).
+
+Two ways, both labelled by a teacher's actions in the learner's own states: a ``teacher``
+replaces PPO by rsl-rl's ``Distillation`` (``h2h_racing.training.teachers``); a ``driver``
+with a ``coef`` adds a behaviour-cloning step to PPO (``ImitationPPO``). A scripted teacher's
+or driver's actions reach the learner through the env's ``expert`` observation group.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from h2h_racing.policies.scripted import TEACHERS
+
+SCRIPTED_TEACHERS = TEACHERS
+"""Scripted drivers a ``teacher`` or ``driver`` can name (their actions reach the learner
+through the env's ``expert`` observation group)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class ImitationConfig:
+    """``[imitation]``: what the learner imitates (nothing by default: plain PPO)."""
+
+    teacher: str | None = None
+    """What to imitate with rsl-rl's ``Distillation`` instead of training with PPO: a
+    state-observation policy (shipped name or ``policy.pt``) distilled into a camera actor,
+    or a scripted driver (``SCRIPTED_TEACHERS``, e.g. ``"racing_line"``) imitated by any
+    actor. The student drives (DAgger: it learns on the states its own driving reaches) and is
+    regressed onto the teacher's actions there. The fast way to a camera policy on a CPU (no
+    critic, one pass per rollout), and a scripted teacher brings what it knows of every track
+    (``racing_line`` laps every shipped and generated track) to a state policy before PPO
+    fine-tunes it (``init``), as AlphaStar's agents start from supervised learning. None
+    trains with PPO."""
+    options: dict[str, float] = field(default_factory=dict)
+    """Constructor arguments of the scripted driver that labels actions (a scripted
+    ``teacher`` or the ``driver``), e.g. ``{"grip_factor": 0.6, "margin": 0.2}`` for a
+    ``RacingLine`` that corners at 60 % of the grip and keeps 0.2 m from the borders."""
+    driver: str | None = None
+    """A scripted driver (``SCRIPTED_TEACHERS``) that PPO's actor is kept near with ``coef``."""
+    coef: float = 0.0
+    """Weight of a behaviour-cloning term in PPO (``ImitationPPO``): after each PPO update the
+    actor's mean actions in the rollout's states are regressed (MSE, one pass over the
+    mini-batches) onto the ``driver``'s actions in those states, as AlphaStar's agents are
+    kept near the supervised policy by a KL term (for Gaussians of equal std, a squared
+    distance of the means): reinforcement learning improves on the driver without forgetting
+    what it does well. 0 turns it off."""
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.coef, (int, float)) and not isinstance(self.coef, bool)
+                and self.coef >= 0):
+            raise ValueError(f"[imitation] coef must be a number >= 0, got {self.coef!r}")
+        if self.driver is not None and self.driver not in SCRIPTED_TEACHERS:
+            raise ValueError(f"[imitation] driver must be one of {SCRIPTED_TEACHERS}, got "
+                             f"{self.driver!r}")
+        if self.coef and (self.driver is None or self.teacher is not None):
+            raise ValueError(f"[imitation] coef keeps PPO's actor near a scripted driver: name "
+                             f"it in driver ({', '.join(SCRIPTED_TEACHERS)}) and leave teacher "
+                             f"unset (a teacher replaces PPO by imitation)")
+        if self.options:
+            if not self.scripted_teacher and self.driver is None:
+                raise ValueError(f"[imitation] options are arguments of a scripted teacher or "
+                                 f"driver ({', '.join(SCRIPTED_TEACHERS)}), but teacher is "
+                                 f"{self.teacher!r}")
+            self.expert()
+
+    @property
+    def scripted_teacher(self) -> bool:
+        """Whether ``teacher`` names a scripted driver (imitated through the ``expert`` group)."""
+        return self.teacher in SCRIPTED_TEACHERS
+
+    def expert(self) -> Any:
+        """The scripted driver that labels actions (the env's ``expert`` group): a scripted
+        ``teacher``, else the ``driver``, with ``options``; or None."""
+        name = self.teacher if self.scripted_teacher else self.driver
+        if name is None:
+            return None
+        from h2h_racing.policies import make_driver
+
+        try:
+            return make_driver(name, **self.options)
+        except TypeError as err:
+            raise ValueError(f"[imitation] options {self.options!r} do not fit the {name!r} "
+                             f"driver: {err}") from None
