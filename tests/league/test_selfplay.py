@@ -99,7 +99,7 @@ def test_smoke_league_snapshots_rates_and_resumes(tmp_path, capsys):
     out = io.StringIO()
     league = League(one_round, tmp_path, out=out)
     league.run()
-    # snapshot_max_rounds = 1: both learners are frozen after round 1.
+    # [snapshots] max_rounds = 1: both learners are frozen after round 1.
     assert [s.name for s in league.snapshots()] == ["main_v1", "main_exploiter_v1"]
     league.close()
     assert "round 1" in out.getvalue()
@@ -142,7 +142,7 @@ def test_smoke_league_snapshots_rates_and_resumes(tmp_path, capsys):
     assert rows["main_exploiter"][1] == "2"
 
 
-def test_anchor_share_and_training_rules(tmp_path):
+def test_anchor_share_and_race_rules(tmp_path):
     from h2h_racing.league.pfsp import Payoff
 
     smoke = LeagueConfig.from_toml(LEAGUE_DIR / "smoke.toml")

@@ -183,7 +183,7 @@ class TestScriptedTeacher:
         obs = runner.env.get_observations()
         assert torch.equal(runner.alg.teacher(obs), obs["expert"])
 
-    def test_teacher_options_make_the_expert(self) -> None:
+    def test_options_make_the_expert(self) -> None:
         config = dataclasses.replace(self.CONFIG, imitation=ImitationConfig(
             teacher="racing_line", options={"margin": 0.2, "grip_factor": 0.6}))
         expert = config.make_env().expert
