@@ -51,8 +51,9 @@ PARK_MARGIN = 1.0
 grid's margin, so projecting them stays cheap)."""
 
 _BLOCKS = (("_car_vectors", race.CAR_VECTORS), ("_car_floats", race.CAR_FLOATS),
-           ("_car_counts", race.CAR_COUNTS), ("_car_flags", race.CAR_FLAGS))
-"""Each block of per-car fields and the fields in its rows, in order."""
+           ("_car_counts", race.CAR_COUNTS), ("_car_flags", race.CAR_FLAGS),
+           ("_pair_floats", race.PAIR_FLOATS), ("_pair_flags", race.PAIR_FLAGS))
+"""Each block of per-car (and per-pair) fields and the fields in its rows, in order."""
 
 
 @dataclass
@@ -348,11 +349,12 @@ class RaceCore:
         self._zero_counts.flags.writeable = False
         self._racing = np.ones((e, n), dtype=bool)
         self._pending_any = False
-        self._pressure = zeros((e, n, n))
-        self._passed = zeros((e, n, n), dtype=bool)
-        self._defended = zeros((e, n, n), dtype=bool)
-        self._faster = zeros((e, n, n), dtype=bool)
-        self._gap = zeros((e, n, n))
+        # The pair kernel's arrays, (E, N, N) rows of two blocks (race.PAIR_*).
+        self._pair_floats = zeros((len(race.PAIR_FLOATS), e, n, n))
+        self._pair_flags = zeros((len(race.PAIR_FLAGS), e, n, n), dtype=bool)
+        for _, names in _BLOCKS[4:]:
+            for name in names:
+                setattr(self, name, self._field(name))
 
     def _field(self, name: str) -> npt.NDArray[np.generic]:
         """The view of the per-car field ``name`` in its block (see ``_allocate``)."""
@@ -545,7 +547,7 @@ class RaceCore:
         self._racing = ~self.done & self._penalty_over()
         self._pending_any = bool(self.pending_replace.any())
         self._update_ranks()
-        self._gap = self.distance[:, :, None] - self.distance[:, None, :]
+        self._gap[...] = self.distance[:, :, None] - self.distance[:, None, :]
         self._sync_physics()
 
     def _spawn_bots(self, mask: BoolArray, line: FloatArray) -> None:
@@ -708,9 +710,8 @@ class RaceCore:
             # The kernel updates the previous gaps in place and fills the scratch flags.
             passed, defended = self._passed, self._defended
             any_passed, any_defended = race.pairs_kernel(
-                self.distance, self._gap, still, self.speed, self._pressure, self._faster,
-                track.length, dt, rules.defence_gap, rules.defence_time, self._gap, passed,
-                defended)
+                self.distance, still, self.speed, self._pair_floats, self._pair_flags,
+                track.length, dt, rules.defence_gap, rules.defence_time)
             if any_passed:
                 overtakes_now = passed.sum(axis=2)
                 overtaken_now = passed.sum(axis=1)
@@ -755,7 +756,7 @@ class RaceCore:
                     self._park_cars(newly_done)
                 self._sync_physics()
                 # Gaps before the next step must see the re-placed cars where they now are.
-                self._gap = self.distance[:, :, None] - self.distance[:, None, :]
+                self._gap[...] = self.distance[:, :, None] - self.distance[:, None, :]
             self._pending_any = bool(self.pending_replace.any())
             self._racing = ~self.done & self._penalty_over()
         self._update_ranks()

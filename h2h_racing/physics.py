@@ -130,7 +130,7 @@ class PhysicsWorld:
         # cffi batch buffers cannot be pickled; they are rebuilt around fresh numpy arrays.
         state = self.__dict__.copy()
         for key in ("_read_buffer", "_write_vel_buffer", "_write_state_buffer", "_cp_space",
-                    "_set_velocities", "_get_state"):
+                    "_cp_calls", "_set_velocities", "_get_state"):
             del state[key]
         return state
 
@@ -159,6 +159,7 @@ class PhysicsWorld:
         of its step; :meth:`step` makes the same chipmunk calls with arguments built here.
         """
         self._cp_space = self.space._space
+        self._cp_calls = (lib.cpSpaceEachBody, lib.cpSpaceStep)
         set_data = ffi.new("pmBatchedData *")
         set_data.fields = _VELOCITY_FIELDS.value
         set_data.floatArray = self._write_vel_buffer._float_arr
@@ -244,7 +245,8 @@ class PhysicsWorld:
         # The same chipmunk calls as pymunk's wrappers, with arguments built once
         # (_bind_step). Locked as pymunk locks it, so that a contact callback that added or
         # removed bodies would be deferred as usual.
-        cp_space, each_body, cp_step = self._cp_space, lib.cpSpaceEachBody, lib.cpSpaceStep
+        cp_space = self._cp_space
+        each_body, cp_step = self._cp_calls
         set_func, set_data, write_floats = self._set_velocities
         count = write_floats.num
         write_floats.num = 0

@@ -239,33 +239,39 @@ def overtakes_and_defences(distance: FloatArray, prev_gap: FloatArray, eligible:
         i passed j on this step, ``defended[e, i, j]``: j completed a defence against i.
     """
     e, n = distance.shape
-    gap = np.empty((e, n, n))
-    passed = np.zeros((e, n, n), dtype=np.bool_)
-    defended = np.zeros((e, n, n), dtype=np.bool_)
-    pairs_kernel(distance, prev_gap, eligible, speed, pressure, faster, length, dt, gap_limit,
-                  time_limit, gap, passed, defended)
-    return gap, passed, defended
+    pair_floats = np.stack([prev_gap, pressure]).astype(np.float64)
+    pair_flags = np.zeros((len(PAIR_FLAGS), e, n, n), dtype=np.bool_)
+    pair_flags[0] = faster
+    pairs_kernel(distance, eligible, speed, pair_floats, pair_flags, length, dt, gap_limit,
+                 time_limit)
+    pressure[...] = pair_floats[1]
+    faster[...] = pair_flags[0]
+    return pair_floats[0], pair_flags[1], pair_flags[2]
 
 
 
 
 
 @njit(cache=True)
-def pairs_kernel(distance, prev_gap, eligible, speed, pressure, faster, length, dt, gap_limit,
-                   time_limit, gap, passed, defended):  # pragma: no cover
+def pairs_kernel(distance, eligible, speed, pair_floats, pair_flags, length, dt, gap_limit,
+                 time_limit):  # pragma: no cover
     """The compiled kernel behind :func:`overtakes_and_defences` (the core's hot path).
 
-    Same arguments, plus the outputs ``gap`` (may be ``prev_gap`` itself: each entry is read
-    before it is written), ``passed`` and ``defended`` (every entry is written); returns
+    The pair arrays come as two blocks (rows as in ``PAIR_FLOATS`` and ``PAIR_FLAGS``):
+    ``gap`` holds the gaps before the step and is overwritten with those after it (each
+    entry is read before it is written), ``pressure`` and ``faster`` are updated in place,
+    ``passed`` and ``defended`` are filled (every entry is written); returns
     ``(any passed, any defended)``.
     """
+    gap, pressure = pair_floats[0], pair_floats[1]
+    faster, passed, defended = pair_flags[0], pair_flags[1], pair_flags[2]
     half = 0.5 * length
     any_passed = False
     any_defended = False
     for e in range(distance.shape[0]):
         for i in range(distance.shape[1]):
             for j in range(distance.shape[1]):
-                before = prev_gap[e, i, j]
+                before = gap[e, i, j]
                 g = distance[e, i] - distance[e, j]
                 gap[e, i, j] = g
                 both = i != j and eligible[e, i] and eligible[e, j]
@@ -306,6 +312,10 @@ CAR_COUNTS: tuple[str, ...] = ("laps", "reverse_count", "immobile_count", "reset
 """The rows of ``RaceCore``'s block of per-car counts (E, N), int64."""
 CAR_FLAGS: tuple[str, ...] = ("done", "finished")
 """The rows of ``RaceCore``'s block of per-car flags (E, N)."""
+PAIR_FLOATS: tuple[str, ...] = ("_gap", "_pressure")
+"""The rows of ``RaceCore``'s block of per-pair floats (E, N, N) (``pairs_kernel``)."""
+PAIR_FLAGS: tuple[str, ...] = ("_faster", "_passed", "_defended")
+"""The rows of ``RaceCore``'s block of per-pair flags (E, N, N) (``pairs_kernel``)."""
 
 
 @njit(cache=True)
