@@ -169,6 +169,10 @@ class RaceCore:
         self._projector = track.projector()
         self.lookup = TrackLookup.from_track(track)
         """Uniform tables of the track's fields for the compiled kernels."""
+        lut = self.lookup
+        # The state observation's tables in one block (one kernel argument).
+        self._track_tables = np.stack([lut.heading, lut.curvature, lut.width_left,
+                                       lut.width_right])
         # The rules kernel's packed constants, built on the next step (they need the wheels).
         self._rule_args: tuple[FloatArray, FloatArray, FloatArray] | None = None
         self.inner_sign = 1 if track.is_ccw else -1
@@ -233,9 +237,11 @@ class RaceCore:
         """Completed laps, (E, N)."""
         self.lap_start_time = zeros((e, n))
         """Simulated time at which the current lap started, (E, N), seconds."""
-        self.last_lap_time = np.full((e, n), np.inf)
+        self.last_lap_time = self._field("last_lap_time")
+        self.last_lap_time[...] = np.inf
         """Time of the last completed lap, (E, N), seconds (inf: none yet)."""
-        self.best_lap_time = np.full((e, n), np.inf)
+        self.best_lap_time = self._field("best_lap_time")
+        self.best_lap_time[...] = np.inf
         """Best valid lap time, (E, N), seconds (inf: none yet)."""
         self.lap_times: list[list[list[float]]] = [[[] for _ in range(n)] for _ in range(e)]
         """Lap times of every car, ``lap_times[env][car]``, seconds (few appends per lap)."""
@@ -249,7 +255,7 @@ class RaceCore:
         """Time penalties received, (E, N)."""
         self.penalty_time = zeros((e, n))
         """Total penalty seconds received, (E, N)."""
-        self.frozen_until = zeros((e, n))
+        self.frozen_until = self._field("frozen_until")
         """Simulated time until which a penalised car is frozen, (E, N), seconds."""
         self.pending_replace = zeros((e, n), dtype=bool)
         """The car is frozen and will be put back on track when its penalty ends."""
@@ -796,8 +802,8 @@ class RaceCore:
             immobilised * rules.immobilised_penalty])
         self.penalties += infraction
         self.penalty_time += penalty * infraction
-        self.frozen_until = np.where(infraction, self.time[:, None] + penalty,
-                                     self.frozen_until)
+        self.frozen_until[...] = np.where(infraction, self.time[:, None] + penalty,
+                                          self.frozen_until)
         self.pending_replace |= infraction
         self._pending_any = True
         # Off track, reversed or stuck: back to the last valid progress; a crash leaves the
@@ -818,10 +824,10 @@ class RaceCore:
         valid = np.ones_like(completed)
         if rules.max_resets_per_lap is not None:
             valid = self.lap_resets <= rules.max_resets_per_lap
-        self.last_lap_time = np.where(completed, lap_time, self.last_lap_time)
-        best = np.where(completed & valid, np.minimum(self.best_lap_time, lap_time),
-                        self.best_lap_time)
-        self.best_lap_time = best
+        self.last_lap_time[...] = np.where(completed, lap_time, self.last_lap_time)
+        self.best_lap_time[...] = np.where(completed & valid,
+                                           np.minimum(self.best_lap_time, lap_time),
+                                           self.best_lap_time)
         for env, car in np.argwhere(completed).tolist():
             self.lap_times[env][car].append(float(lap_time[env, car]))
             self.lap_valid[env][car].append(bool(valid[env, car]))

@@ -122,8 +122,7 @@ class InfoBuilder:
               penalised: Any) -> None:
         _info_kernel(self.weights, racing, progress, off_track, crashed, collided, overtakes,
                      overtaken, lap_completed, penalised, core._car_floats, core._car_counts,
-                     core._car_flags, self.percent_per_metre, core.last_lap_time,
-                     core.best_lap_time, core.time, core.frozen_until, self._terms,
+                     core._car_flags, self.percent_per_metre, core.time, self._terms,
                      self._reward, self._floats, self._ints, self._flags)
 
     def _dicts(self, core: Any, index: dict[str, int],
@@ -150,11 +149,12 @@ class InfoBuilder:
 @njit(cache=True)
 def _info_kernel(weights, racing, progress, off_track, crashed, collided, step_overtakes,
                  step_overtaken, lap_completed, penalised, car_floats, car_counts, car_flags,
-                 percent_per_metre, last_lap, best_lap, time, frozen_until, terms, reward,
-                 floats, ints, flags):  # pragma: no cover
+                 percent_per_metre, time, terms, reward, floats, ints,
+                 flags):  # pragma: no cover
     # The reward terms (the same kernel as rewards.reward_terms) and the info fields of env
     # copy 0, in one compiled call; the car fields come as the core's blocks (race.CAR_*).
     speed, distance, start_distance = car_floats[3], car_floats[6], car_floats[7]
+    last_lap, best_lap, frozen_until = car_floats[9], car_floats[10], car_floats[11]
     laps, resets, penalties = car_counts[0], car_counts[3], car_counts[4]
     overtakes, overtaken = car_counts[5], car_counts[6]
     defences, rank = car_counts[7], car_counts[8]

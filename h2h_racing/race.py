@@ -305,7 +305,8 @@ CAR_VECTORS: tuple[str, ...] = ("position", "velocity")
 """The rows of ``RaceCore``'s block of per-car 2-vectors (E, N, 2); the kernels unpack them
 by these indices."""
 CAR_FLOATS: tuple[str, ...] = ("yaw", "yaw_rate", "steer", "speed", "s", "d", "distance",
-                               "start_distance", "lap_origin")
+                               "start_distance", "lap_origin", "last_lap_time", "best_lap_time",
+                               "frozen_until")
 """The rows of ``RaceCore``'s block of per-car floats (E, N)."""
 CAR_COUNTS: tuple[str, ...] = ("laps", "reverse_count", "immobile_count", "resets",
                                "penalties", "overtakes", "overtaken", "defences", "rank")

@@ -74,8 +74,8 @@ def state_observation(core: RaceCore) -> npt.NDArray[np.float32]:
                     state_size(cfg.opponent_slots, cfg.obstacle_slots)), dtype=np.float32)
     _state_kernel(core._car_vectors, core._car_floats, core._car_counts, core._racing,
                   core._car_flags, core.obstacle_s,
-                  core.obstacle_d, core.bot_s, core.bot_d, core.bot_speed, lut.heading,
-                  lut.curvature, lut.width_left, lut.width_right, lut.inv_ds, lut.length,
+                  core.obstacle_d, core.bot_s, core.bot_d, core.bot_speed, core._track_tables,
+                  lut.inv_ds, lut.length,
                   cfg.car.max_speed, cfg.car.max_steer,
                   cfg.opponent_slots, cfg.obstacle_slots, LOOKAHEAD, out)
     return out
@@ -101,11 +101,13 @@ def _take_nearest(distance):  # pragma: no cover
 
 @njit(cache=True)
 def _state_kernel(car_vectors, car_floats, car_counts, racing, car_flags, obstacle_s,
-                  obstacle_d, bot_s, bot_d, bot_speed, heading, curvature, width_left,
-                  width_right, inv_ds, length, max_speed, max_steer, m_slots, k_slots, lookahead,
-                  out):  # pragma: no cover
+                  obstacle_d, bot_s, bot_d, bot_speed, track_tables, inv_ds, length, max_speed,
+                  max_steer, m_slots, k_slots, lookahead, out):  # pragma: no cover
     """Compiled loop over env copies and cars filling ``out`` (E, N, F); the car fields come
-    as the core's blocks (rows as in ``race.CAR_*``)."""
+    as the core's blocks (rows as in ``race.CAR_*``), the track's lookup tables as one block
+    (heading, curvature, width_left, width_right)."""
+    heading, curvature = track_tables[0], track_tables[1]
+    width_left, width_right = track_tables[2], track_tables[3]
     velocity = car_vectors[1]
     yaw, yaw_rate, steer, speed = car_floats[0], car_floats[1], car_floats[2], car_floats[3]
     s, d = car_floats[4], car_floats[5]
