@@ -18,6 +18,7 @@ from typing import Any, Literal
 
 from h2h_racing.config import EnvConfig, RaceRules, RewardConfig
 from h2h_racing.training.imitation import SCRIPTED_TEACHERS, ImitationConfig
+from h2h_racing.training.race_settings import RaceSettings
 from h2h_racing.training.teachers import load_teacher
 from h2h_racing.training.toml_types import build_tables
 from h2h_racing.training.tracks import ProceduralTracks
@@ -97,7 +98,8 @@ class DistillConfig:
 
 
 TABLES: dict[str, type] = {"ppo": PPOConfig, "distill": DistillConfig, "reward": RewardConfig,
-                           "procedural": ProceduralTracks, "imitation": ImitationConfig}
+                           "procedural": ProceduralTracks, "imitation": ImitationConfig,
+                           "race": RaceSettings}
 """``TrainConfig``'s tables and the configs they fill."""
 MOVED = {"track_every": "[procedural] every", "teacher": "[imitation] teacher",
          "teacher_options": "[imitation] options", "imitation_driver": "[imitation] driver",
@@ -109,6 +111,14 @@ MOVED = {"track_every": "[procedural] every", "teacher": "[imitation] teacher",
 REMOVED = {"validation_tracks": "held-out random tracks did not predict the shipped tracks "
                                 "(ppo_generalist's card)"}
 """Options that were tried and removed, and why."""
+
+HEAD_TO_HEAD: dict[str, Any] = {"num_cars": 2, "learners": 1, "opponent": "racing_line",
+                                "reward": {"contact": -5.0}}
+"""What ``h2h-racing train`` trains without ``--config``: one learner against the scripted
+``racing_line`` in every env copy, with every contact costing 5 (at fault or not). A policy
+trained alone never meets another car and cannot race one (0 laps and 25 resets against
+``racing_line`` in issue 19); the contact cost keeps it from gaining by being run into
+(``experiments/policies/ppo_speedway_racer.md``). ``--opponents none`` trains alone."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -190,6 +200,10 @@ class TrainConfig:
     runs) and the car goes on, as in the races a policy is judged in. One lap per episode,
     at most 120 s, either way."""
 
+    race: RaceSettings = field(default_factory=RaceSettings)
+    """``[race]``: the race type trained for, with its boxes and bots (``RaceSettings``; by
+    default a time trial alone, head-to-head with an opponent, no boxes, no bots)."""
+
     def __post_init__(self) -> None:
         if self.rules not in ("training", "race"):
             raise ValueError(f"TrainConfig.rules must be 'training' or 'race', got "
@@ -206,6 +220,12 @@ class TrainConfig:
                              "set observations to 'camera_only' or 'camera' (a state student "
                              "of a state teacher would only copy it), or imitate a scripted "
                              f"driver ({', '.join(SCRIPTED_TEACHERS)})")
+        if not isinstance(self.race, RaceSettings):
+            raise ValueError(f"TrainConfig.race must be a RaceSettings, got {self.race!r}")
+        if self.race.race_type == "head_to_head" and self.num_cars < 2:
+            raise ValueError("[race] race_type 'head_to_head' needs two cars or more per copy: "
+                             "give an opponent (--opponents racing_line) or set num_cars, or "
+                             "train against bot cars with race_type 'head_to_bot'")
         if not isinstance(self.procedural, ProceduralTracks):
             raise ValueError(f"TrainConfig.procedural must be a ProceduralTracks, got "
                              f"{self.procedural!r}")
@@ -241,9 +261,9 @@ class TrainConfig:
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "train config") -> TrainConfig:
         """Build from plain data (a parsed TOML file): top-level keys are this class's fields,
-        the tables ``[ppo]``, ``[distill]``, ``[reward]``, ``[procedural]`` and ``[imitation]``
-        fill ``PPOConfig``, ``DistillConfig``, ``RewardConfig``, ``ProceduralTracks`` and
-        ``ImitationConfig``; unknown
+        the tables ``[ppo]``, ``[distill]``, ``[reward]``, ``[procedural]``, ``[imitation]``
+        and ``[race]`` fill ``PPOConfig``, ``DistillConfig``, ``RewardConfig``,
+        ``ProceduralTracks``, ``ImitationConfig`` and ``RaceSettings``; unknown
         keys raise ``ValueError`` (a key of the earlier flat layout names its table)."""
         values = build_tables(cls, data, source, TABLES, moved=MOVED, removed=REMOVED)
         try:
@@ -274,8 +294,9 @@ class TrainConfig:
     def env_config(self) -> EnvConfig:
         """The env the learners race in: ``rules`` (DeepRacer's training rules by default: an
         infraction ends the car's episode), one lap per episode (``track`` names the first
-        track; a procedural run starts on ``speedway`` and moves to random tracks)."""
-        race_type = "time_trial" if self.num_cars == 1 else "head_to_head"
+        track; a procedural run starts on ``speedway`` and moves to random tracks), ``race``'s
+        race type, boxes and bots."""
+        race_type = self.race.resolved_type(self.num_cars)
         camera = dataclasses.replace(EnvConfig().camera, width=self.camera_size[0],
                                      height=self.camera_size[1])
         track = "speedway" if self.track == PROCEDURAL else self.track
@@ -286,7 +307,7 @@ class TrainConfig:
                                         max_resets_per_lap=None)
         return EnvConfig(track=track, num_cars=self.num_cars, race_type=race_type,
                          rules=rules, reward=self.reward,
-                         camera=camera, **self.action_space())
+                         camera=camera, **self.race.env_fields(), **self.action_space())
 
     def action_space(self) -> dict[str, Any]:
         """The ``EnvConfig`` action-space overrides of ``model_metadata`` (empty without)."""

@@ -40,7 +40,13 @@ but reset one at a time (see ``RacingVecEnv``).
 
 Bot cars (``race_type="head_to_bot"`` or ``num_bots``) drive in every copy; the learner's state
 observation sees them in its opponent slots (the ``critic`` group's privileged part lists the
-other cars only).
+other cars only). Boxes (``race_type="object_avoidance"`` or ``num_obstacles``) and bots are
+drawn per copy by the core at each of that copy's resets, from the VecEnv's seeded generator:
+with ``randomize_obstacles`` / ``randomize_bots`` every copy and every episode gets its own
+layout, as DeepRacer re-draws them per episode. A copy whose training start put a car on a box
+or right behind one (``BOX_CLEAR_BEHIND``, ``BOX_CLEAR_AHEAD``) is reset again with a new start
+and new boxes (up to ``START_TRIES`` times, then on the start line, which the core keeps
+clear): otherwise about one episode in six would start in a crash (speedway, 6 boxes).
 
 DeepRacer inputs: ``reward_function`` replaces the built-in reward by a DeepRacer
 ``reward_function(params)`` file, loaded once per learner row (module-level state stays per
@@ -85,6 +91,15 @@ from h2h_racing.track_io import load_track  # noqa: E402
 OBSERVATIONS = ("state", "camera", "camera_only")
 """What the actor can be given: the state vector; the camera and the state vector; the camera
 and the car's own motion (``motion`` group)."""
+
+BOX_CLEAR_BEHIND = 0.6
+"""A box whose centre is less than this behind a car's centre at its start blocks that start
+[m] (the box's half length 0.25 m plus the car's half length 0.16 m, and a margin)."""
+BOX_CLEAR_AHEAD = 1.5
+"""A box whose centre is less than this ahead of a car's centre at its start blocks that start
+[m]: room to steer round it from standstill."""
+START_TRIES = 16
+"""Draws of a clear start per reset copy before it starts on the start line."""
 
 Opponent = Callable[[RaceCore, int], npt.NDArray[np.floating]]
 """Drives car ``car`` of every copy: ``opponent(core, car) -> (E, 2)`` actions in [-1, 1]."""
@@ -178,6 +193,7 @@ class RacingVecEnv(VecEnv):
         self.random_starts = random_starts
         self.core.seed(seed)
         self.core.reset(start=self._starts(num_envs))
+        self._clear_starts(np.ones(num_envs, dtype=bool))
         self.reward_function = reward_function
         self._builders: list[Any] = []
         self._deepracer: list[Any] = []
@@ -256,6 +272,7 @@ class RacingVecEnv(VecEnv):
         log = self._episode_log(ended, terms) if ended.any() else {}
         if ended.any():
             core.reset_envs(ended, start=self._starts(int(ended.sum())))
+            self._clear_starts(ended)
             if self._camera is not None:
                 self._camera.reset(core)
             for copy in np.flatnonzero(ended).tolist() if self._builders else ():
@@ -306,6 +323,7 @@ class RacingVecEnv(VecEnv):
         self.core.rng = rng
         self.core.max_cycles = max_cycles
         self.core.reset(start=self._starts(self.core.num_envs))
+        self._clear_starts(np.ones(self.core.num_envs, dtype=bool))
         self._reset_drivers()
         if self._camera is not None:
             self._camera = CameraSensor(self.config.camera, track, self.config.car,
@@ -338,6 +356,29 @@ class RacingVecEnv(VecEnv):
         for driver in (self.opponent, self.expert):
             if driver is not None:
                 driver.reset(self.core)
+
+    def _clear_starts(self, mask: npt.NDArray[np.bool_]) -> None:
+        """Reset again the copies in ``mask`` whose start has a box on or just ahead of a car,
+        with new starts (and new boxes when randomised); after ``START_TRIES`` draws the
+        copies still blocked start on the start line, clear of the core's boxes."""
+        core = self.core
+        if not core.num_obstacles:
+            return
+        for tries in range(START_TRIES + 1):
+            blocked = mask & self._blocked_starts()
+            if not blocked.any():
+                return
+            count = int(blocked.sum())
+            start = self._starts(count) if tries < START_TRIES else np.zeros(count)
+            core.reset_envs(blocked, start=start)
+
+    def _blocked_starts(self) -> npt.NDArray[np.bool_]:
+        """Copies with a box centre within ``BOX_CLEAR_BEHIND`` behind or ``BOX_CLEAR_AHEAD``
+        ahead of a car along the lap, on either lane, (E,)."""
+        core = self.core
+        gap = np.mod(core.obstacle_s[:, None, :] - core.s[:, :, None] + BOX_CLEAR_BEHIND,
+                     self.track.length)
+        return (gap < BOX_CLEAR_BEHIND + BOX_CLEAR_AHEAD).any(axis=(1, 2))
 
     def _starts(self, count: int) -> npt.NDArray[np.float64] | None:
         # None lets the core place the start: on the line, or its round-robin rotation.
