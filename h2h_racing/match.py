@@ -9,8 +9,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-import sys
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,6 +19,7 @@ import numpy as np
 from h2h_racing.config import RaceRules
 from h2h_racing.deepracer.metadata import nearest_discrete
 from h2h_racing.env import RacingEnv
+from h2h_racing.progress import WIDTH, Progress
 from h2h_racing.results import format_results
 
 VIDEO_CODECS: dict[str, tuple[tuple[str, str], ...]] = {
@@ -210,7 +209,8 @@ def run_race(track: str, drivers: Sequence[str | Any], race_type: str = "head_to
 
 
 class ProgressBar:
-    """A one-line progress bar of a race on stderr, shown once the race has run a while.
+    """A race's progress line on stderr (``h2h_racing.progress``), shown once the race has
+    run a while.
 
     The fraction done is the larger of the last running car's share of the lap target and
     the share of the time limit used.
@@ -221,16 +221,12 @@ class ProgressBar:
         stream: Where to draw (stderr by default).
     """
 
-    WIDTH = 30
+    WIDTH = WIDTH
     """Characters of the bar itself."""
 
     def __init__(self, env: RacingEnv, delay: float = 1.0, stream: TextIO | None = None) -> None:
         self.env = env
-        self.delay = delay
-        self.stream = stream if stream is not None else sys.stderr
-        self._start = time.monotonic()
-        self._last = 0.0
-        self._shown = False
+        self.progress = Progress("race", stream=stream, delay=delay)
 
     def fraction(self) -> float:
         """Return the fraction of the race done, in [0, 1]."""
@@ -248,30 +244,18 @@ class ProgressBar:
 
     def update(self, force: bool = False) -> None:
         """Redraw the bar (at most ten times a second, unless ``force``)."""
-        now = time.monotonic()
-        if not force and (now - self._start < self.delay or now - self._last < 0.1):
-            return
-        self._last = now
-        self._shown = True
-        fraction = self.fraction()
-        filled = round(fraction * self.WIDTH)
         core = self.env.core
         laps = int(core.laps[0].min())
         target = core.rules.laps
         lap = f" lap {min(laps + 1, target)}/{target}" if target else ""
-        self.stream.write(f"\rrace {100 * fraction:3.0f}% |{'#' * filled}"
-                          f"{'.' * (self.WIDTH - filled)}| t={float(core.time[0]):6.1f} s{lap} "
-                          f"({now - self._start:.0f} s)")
-        self.stream.flush()
+        self.progress.update(self.fraction(), f"t={float(core.time[0]):6.1f} s{lap}",
+                             force=force)
 
     def close(self) -> None:
         """Draw the race's final state and end the bar's line, if it was shown."""
-        if self._shown:
-            # The last throttled redraw can be a good part of a fast race before its end.
-            self.update(force=True)
-            self.stream.write("\n")
-            self.stream.flush()
-            self._shown = False
+        # The last throttled redraw can be a good part of a fast race before its end.
+        self.update()
+        self.progress.close()
 
 
 def _bgr(frame: Any) -> Any:

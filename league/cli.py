@@ -20,6 +20,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from h2h_racing.progress import Progress, add_progress_flag, progress_mode
+
 DEFAULT_LEAGUE = "runs/league.sqlite"
 LEAGUE_FILE_HELP = "league file (SQLite; a league run writes runs/leagues/NAME/league.sqlite)"
 
@@ -48,30 +50,9 @@ def _add_backend_args(parser: argparse.ArgumentParser, default: str) -> None:
                              "listens on 127.0.0.1 only)")
 
 
-class _Progress:
-    """Races done / all and the time taken, on stderr: one line redrawn on a terminal; in a
-    log file a line per tenth of the races, without carriage returns."""
-
-    def __init__(self, stream: Any = None) -> None:
-        self.stream = sys.stderr if stream is None else stream
-        self.terminal = self.stream.isatty()
-        self.start = time.perf_counter()
-        self.tenths = -1
-
-    def __call__(self, done: int, total: int) -> None:
-        text = f"{done}/{total} races  {time.perf_counter() - self.start:6.1f} s"
-        if self.terminal:
-            print(f"\r{text}", end="", file=self.stream, flush=True)
-            return
-        tenths = 10 * done // max(total, 1)
-        if tenths > self.tenths:
-            self.tenths = tenths
-            print(text, file=self.stream, flush=True)
-
-    def close(self) -> None:
-        """End the redrawn line (on a terminal)."""
-        if self.terminal:
-            print(file=self.stream, flush=True)
+def _races_progress(progress: Progress) -> Callable[[int, int], None]:
+    """``run_tournament``'s progress callback drawing ``progress``."""
+    return lambda done, total: progress.update(done / max(total, 1), f"{done}/{total} races")
 
 
 def _exit_on_sigterm() -> None:
@@ -119,10 +100,10 @@ def _cmd_tournament(args: argparse.Namespace) -> int:
                               name=args.name, anchor=args.anchor)
     backend = _backend(args)
     start = time.perf_counter()
-    progress = _Progress()
+    progress = Progress("tournament", mode=progress_mode(args))
     try:
         with LeagueStore(args.league) as store:
-            report = run_tournament(config, store, backend, progress=progress)
+            report = run_tournament(config, store, backend, progress=_races_progress(progress))
     finally:
         backend.close()
         progress.close()
@@ -150,7 +131,7 @@ def _cmd_league_train(args: argparse.Namespace) -> int:
     if args.rounds is not None:
         config = dataclasses.replace(config, max_rounds=args.rounds)
     out = Path(args.out or Path("runs") / "leagues" / config.name)
-    league = League(config, out, backend=_backend(args))
+    league = League(config, out, backend=_backend(args), progress=progress_mode(args))
     try:
         league.run()
         print(f"league {config.name!r} in {out}: {league.league_steps() / 1e6:.2f} M steps, "
@@ -312,6 +293,7 @@ def add_commands(sub: Any) -> None:
                       help="player rated 1000 (default: racing_line when it plays)")
     tour.add_argument("--league", default=DEFAULT_LEAGUE, help="league file (SQLite)")
     _add_backend_args(tour, "local")
+    add_progress_flag(tour)
     tour.set_defaults(func=_league_errors(_cmd_tournament))
 
     league = sub.add_parser("league", help="self-play league: train, table, plot")
@@ -327,6 +309,7 @@ def add_commands(sub: Any) -> None:
     train.add_argument("--rounds", type=int, default=None,
                        help="override the round cap (default: the config's max_rounds)")
     _add_backend_args(train, "local")
+    add_progress_flag(train)
     train.set_defaults(func=_league_errors(_cmd_league_train))
     table = lsub.add_parser("table", help="print the standings of a league file")
     table.add_argument("--league", default=DEFAULT_LEAGUE, help=LEAGUE_FILE_HELP)

@@ -48,6 +48,7 @@ from h2h_racing.league.config import LeagueConfig, LearnerSpec
 from h2h_racing.league.learners import TrainJob, copy_state, train_round
 from h2h_racing.league.store import LeagueStore, Player, file_sha256, player_for
 from h2h_racing.league.tournament import PAIR_ORDERS, Job, make_job, run_job
+from h2h_racing.progress import Mode, Progress
 
 
 def _round_of(key: str, context: str) -> int:
@@ -69,11 +70,14 @@ class League:
         folder: Where the store, learners and snapshots live; an existing league folder of
             the same name is continued.
         backend: Where learner rounds and matches run (``league.backends``); None: in process.
-        out: Progress display stream (None: stderr).
+        out: Progress display stream (None: stderr): a line per round (standings, timings)
+            and the run's progress line (``h2h_racing.progress``).
+        progress: ``"auto"`` (a redrawn line on a terminal, a line per tenth of the budget
+            elsewhere) or ``"off"`` (the round lines only).
     """
 
     def __init__(self, config: LeagueConfig, folder: str | Path, backend: Any | None = None,
-                 out: TextIO | None = None) -> None:
+                 out: TextIO | None = None, progress: Mode = "auto") -> None:
         from h2h_racing.league.backends import InProcessBackend
 
         self.config = config
@@ -87,6 +91,7 @@ class League:
         self.store.set_meta("league_name", config.name)
         self.backend = backend or InProcessBackend()
         self.out = out or sys.stderr
+        self.progress = Progress("league", mode=progress, stream=self.out)
         self.rng = np.random.default_rng(config.seed)
         self.timings: dict[str, float] = {}
         """Seconds spent in each phase of the last round (train, evaluate, place)."""
@@ -178,8 +183,16 @@ class League:
             self.store.set_meta("round", str(round_index + 1))
             elapsed = (time.perf_counter() - start) / 60.0
             self._show(round_index, elapsed)
+            budget = min(1.0, elapsed / self.config.minutes) if self.config.minutes else 1.0
+            rounds = (round_index + 1) / self.config.max_rounds
+            done = max(budget, rounds)
+            # The ETA extrapolated from the larger share is the budget's remaining time when
+            # the budget ends the run first.
+            self.progress.update(done, f"round {round_index + 1}/{self.config.max_rounds} "
+                                       f"({self.config.minutes:g} min budget)")
             if elapsed >= self.config.minutes:
                 break
+        self.progress.close()
         if self.config.main_restore.finish_on_best:
             for spec in self.config.learners:
                 if spec.role == "main":
@@ -309,10 +322,10 @@ class League:
             restores = int(self._learner_meta(learner, "restores")) + 1
             self._put_back_best(learner, round_index, {f"{learner}.restores": str(restores)})
             best_round = int(self._learner_meta(learner, "best_round"))
-            print(f"[league {cfg.name}] round {round_index + 1}: {learner}'s record against "
-                  f"the anchors {record:.2f} < best {best:.2f} - {cfg.main_restore.margin}: "
-                  f"restored its state after round {best_round + 1}",
-                  file=self.out, flush=True)
+            self.progress.message(
+                f"[league {cfg.name}] round {round_index + 1}: {learner}'s record against the "
+                f"anchors {record:.2f} < best {best:.2f} - {cfg.main_restore.margin}: restored "
+                f"its state after round {best_round + 1}")
 
     def _put_back_best(self, learner: str, round_index: int,
                        metas: dict[str, str] | None = None) -> None:
@@ -335,9 +348,10 @@ class League:
             return
         self._put_back_best(learner, last)
         best_round = int(meta[f"{learner}.best_round"])
-        print(f"[league {self.config.name}] finished {learner} on its best record "
-              f"({float(meta[f'{learner}.best_record']):.2f}): its state after round "
-              f"{best_round + 1}, not round {last + 1}", file=self.out, flush=True)
+        self.progress.message(
+            f"[league {self.config.name}] finished {learner} on its best record "
+            f"({float(meta[f'{learner}.best_record']):.2f}): its state after round "
+            f"{best_round + 1}, not round {last + 1}")
 
     def _play(self, jobs: list[Job]) -> None:
         for _job_done, records in self.backend.map(run_job, jobs):
@@ -403,11 +417,11 @@ class League:
     def _show(self, round_index: int, minutes: float) -> None:
         rows = self.standings()[:3]
         top = ", ".join(f"{r.player} {r.rating:.0f}" for r in rows) or "-"
-        print(f"[league {self.config.name}] round {round_index + 1}  {minutes:5.1f} min  "
-              f"{self.league_steps() / 1e6:6.2f} M steps  snapshots {len(self.snapshots())}  "
-              f"top: {top}  (train {self.timings.get('train', 0):.0f} s, evaluate "
-              f"{self.timings.get('evaluate', 0):.0f} s, place {self.timings.get('place', 0):.0f} s)",
-              file=self.out, flush=True)
+        self.progress.message(
+            f"[league {self.config.name}] round {round_index + 1}  {minutes:5.1f} min  "
+            f"{self.league_steps() / 1e6:6.2f} M steps  snapshots {len(self.snapshots())}  "
+            f"top: {top}  (train {self.timings.get('train', 0):.0f} s, evaluate "
+            f"{self.timings.get('evaluate', 0):.0f} s, place {self.timings.get('place', 0):.0f} s)")
         self._show_racecraft(round_index)
 
     def _show_racecraft(self, round_index: int) -> None:
@@ -422,7 +436,7 @@ class League:
             record = racecraft_records(matches, spec.name, self.config.anchors).get("all")
             if record is not None:
                 record = dataclasses.replace(record, opponent="the anchors")
-                print(f"  {record.line()}", file=self.out, flush=True)
+                self.progress.message(f"  {record.line()}")
 
     def close(self) -> None:
         """Release the store and the backend."""

@@ -8,6 +8,7 @@ are used for every driver, so two drivers' figures compare like for like.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -163,7 +164,8 @@ def grid_slots(races: int, start: str) -> np.ndarray:
 
 
 def head_to_head(driver_a: Any, driver_b: Any, track: str, races: int = 20, laps: int = 3,
-                 seed: int = 0, start: str = "both", gap: float | None = None) -> HeadToHead:
+                 seed: int = 0, start: str = "both", gap: float | None = None,
+                 progress: Callable[[float, int], None] | None = None) -> HeadToHead:
     """Race two drivers against each other ``races`` times, all at once as env copies.
 
     With ``start="both"``, race pair k (copies 2k and 2k + 1) starts at a random point of the
@@ -175,6 +177,9 @@ def head_to_head(driver_a: Any, driver_b: Any, track: str, races: int = 20, laps
     Args:
         gap: Distance of the slot behind [m of track] (a standing start); None keeps the
             grid's 0.75 m (DeepRacer's). At most a quarter of the lap.
+        progress: Called after every step with the share of the races done (the mean over
+            races of the larger of the last running car's share of the laps and the share of
+            the time limit used) and the number of races finished.
     """
     from h2h_racing.policies import make_driver
 
@@ -199,6 +204,8 @@ def head_to_head(driver_a: Any, driver_b: Any, track: str, races: int = 20, laps
     while not core.done.all():
         core.step(*env_config.commands(np.stack([d.act(core, car)
                                                  for car, d in enumerate(drivers)], axis=1)))
+        if progress is not None:
+            progress(_share_done(core, laps), int(core.done.all(axis=1).sum()))
     winner = (core.rank == 1) & core.finished
     behind = slots[:, 0] == 1
     names = tuple(getattr(d, "name", type(d).__name__) for d in drivers)
@@ -213,6 +220,15 @@ def head_to_head(driver_a: Any, driver_b: Any, track: str, races: int = 20, laps
         wins_behind=int(winner[behind, 0].sum()), races_front=int((~behind).sum()),
         wins_front=int(winner[~behind, 0].sum()), defences=pair(core.defences), start=start,
         gap=float(spacing))
+
+
+def _share_done(core: RaceCore, laps: int) -> float:
+    """The share of ``core``'s races done (see ``head_to_head``'s ``progress``)."""
+    driven = (core.distance - core.lap_origin) / (core.track.length * laps)
+    driven[core.done] = 1.0
+    share = np.maximum(driven.min(axis=1), core.time / core.rules.time_limit)
+    share[core.done.all(axis=1)] = 1.0
+    return float(np.clip(share, 0.0, 1.0).mean())
 
 
 def combine(results: list[HeadToHead], track: str = "all") -> HeadToHead:

@@ -135,5 +135,5 @@ def test_the_race_progress_bar_ends_on_the_final_state() -> None:
     while env.agents:  # no redraws while the race runs
         env.step({"car_0": driver.act(env.core, 0)[0]})
     bar.close()
-    last = stream.getvalue().rstrip("\n").split("\r")[-1]
+    last = stream.getvalue().splitlines()[-1]
     assert last.startswith("race 100% |" + "#" * ProgressBar.WIDTH + "|"), last
