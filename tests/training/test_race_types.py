@@ -138,6 +138,16 @@ class TestBoxes:
             assert not (near & fresh).any(), f"step {step}"
             env.step(torch.tensor([[1.0, 1.0]] * 64))
 
+    def test_a_new_track_keeps_starts_clear(self) -> None:
+        from h2h_racing.track_io import load_track
+
+        env = boxes_env(seed=2, num_envs=64)
+        env.set_track(load_track("speedway"))
+        core = env.core
+        gap = np.mod(core.obstacle_s - core.s[:, :1], env.track.length)
+        gap = np.where(gap > env.track.length / 2, gap - env.track.length, gap)
+        assert not ((gap > -0.6) & (gap < 1.5)).any()
+
     def test_first_step_has_no_crash(self) -> None:
         env = boxes_env(seed=1, num_envs=256)
         _, _, dones, _ = env.step(torch.zeros(256, 2))
