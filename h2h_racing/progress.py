@@ -102,7 +102,8 @@ class Progress:
 
     def clear(self) -> None:
         """Take the redrawn line off the terminal (before printing something else there); it
-        comes back on the next update."""
+        comes back on the next update (``close`` does not draw it again)."""
+        self._pending = None
         if self._open:
             self.stream.write("\r\x1b[K")
             self.stream.flush()
