@@ -4,10 +4,10 @@ block of about 40 lines per iteration, or rsl-rl's block with the run's totals (
 rsl-rl's runners print through ``Logger.log`` once per iteration; ``TrainDisplay`` wraps that
 method on the runner's logger (rsl-rl offers no print hook): the tensorboard figures are
 written as before, and the block is either swallowed (the loop runs rsl-rl's calls in
-``quiet``, which sends its prints nowhere) or printed with the run's iteration count and ETA. ``train`` calls ``learn()`` in chunks (track changes,
-evaluations, the ``--minutes`` check), and rsl-rl counts each chunk as its own run
-(``Learning iteration 0/10``, ``10/20``, an ETA to the chunk's end); the wrapper passes the
-run's first iteration and its total instead.
+``quiet``, which sends its prints nowhere) or printed with the run's iteration count and ETA.
+``train`` calls ``learn()`` in chunks (track changes, evaluations, the ``--minutes`` check),
+and rsl-rl counts each chunk as its own run (``Learning iteration 0/10``, ``10/20``, an ETA to
+the chunk's end); the wrapper passes the run's first iteration and its total instead.
 """
 
 from __future__ import annotations
