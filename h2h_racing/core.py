@@ -22,21 +22,27 @@ Training starts (DeepRacer's): with ``round_robin_starts`` each reset of a copy 
 point ``round_robin_advance`` of a lap further round; with ``alternate_direction`` every second
 episode drives the track the other way round (``RaceCore.reset(reverse=...)``; every copy of a
 core drives the same direction, so the flip needs a reset of every copy at once).
+
+The core is split by concept: its arrays and their pickling in ``core_state``, reset-time
+placement in ``core_spawn``, infractions, re-placement and parking in ``core_penalties``, and
+the step's report (``StepEvents``, re-exported here) in ``core_events``.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
 
 from h2h_racing import bots, race, spawn
 from h2h_racing.config import EnvConfig
+from h2h_racing.core_events import StepEvents
+from h2h_racing.core_penalties import CorePenalties
+from h2h_racing.core_spawn import CoreSpawn
+from h2h_racing.core_state import CoreState
 from h2h_racing.dynamics import SingleTrackModel
 from h2h_racing.physics import PhysicsWorld
-from h2h_racing.replacement import REPLACE_GAP, REPLACE_STEP, REPLACE_TRIES, place_kernel
 from h2h_racing.track import Track
 from h2h_racing.track_lookup import TrackLookup
 
@@ -44,66 +50,16 @@ FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.int64]
 
+__all__ = ["ENV_GAP", "PARK_MARGIN", "RaceCore", "StepEvents"]
+
 ENV_GAP = 30.0
 """Empty space between the bounding boxes of neighbouring env copies in the shared Space [m]."""
 PARK_MARGIN = 1.0
 """Parked cars wait this far beyond the track's bounding box [m] (inside the projection
 grid's margin, so projecting them stays cheap)."""
 
-_BLOCKS = (("_car_vectors", race.CAR_VECTORS), ("_car_floats", race.CAR_FLOATS),
-           ("_car_counts", race.CAR_COUNTS), ("_car_flags", race.CAR_FLAGS),
-           ("_pair_floats", race.PAIR_FLOATS), ("_pair_flags", race.PAIR_FLAGS))
-"""Each block of per-car (and per-pair) fields and the fields in its rows, in order."""
 
-
-@dataclass
-class StepEvents:
-    """What happened during one step, per car, shape (E, N) unless noted."""
-
-    terminated: BoolArray
-    """The car's episode ended for a reason inside the task (finished or retired)."""
-    truncated: BoolArray
-    """The car's episode was cut short by the time limit or ``max_cycles``."""
-
-    off_track: BoolArray
-    """The car went off track (all four wheels off) this step."""
-    crashed: BoolArray
-    """The car was judged at fault for a contact (it was behind, or hit an obstacle)."""
-    collided: BoolArray
-    """The car was in a new contact, at fault or not."""
-    reversed: BoolArray
-    """The car drove the wrong way for ``rules.reversed_steps`` steps."""
-    immobilised: BoolArray
-    """The car did not move for ``rules.immobilised_steps`` steps."""
-    penalised: BoolArray
-    """The car received a time penalty (race mode) this step."""
-    replaced: BoolArray
-    """The car was put back on the track after its penalty this step."""
-    lap_completed: BoolArray
-    """The car completed a lap this step."""
-    finished: BoolArray
-    """The car reached the lap target this step."""
-    progress: FloatArray
-    """Metres of track progress this step (negative when going backwards)."""
-    overtakes: IntArray
-    """Cars this car passed on track this step."""
-    overtaken: IntArray
-    """Cars that passed this car this step."""
-    defences: IntArray
-    """Defences completed by this car this step."""
-    collisions: list[tuple[int, int, int, bool]] = field(default_factory=list)
-    """``(env, car at fault, other car or obstacle index, other_is_obstacle)``."""
-    bot_contacts: list[tuple[int, int, int, bool]] = field(default_factory=list)
-    """New contacts between cars and bots: ``(env, car, bot, car_at_fault)``;
-    ``car_at_fault`` False means the bot ran into the car from behind (the bots paused)."""
-    bots_paused: BoolArray | None = None
-    """Env copies whose bots started (or extended) a ``bot_penalty`` pause this step, (E,);
-    None when no bot paused."""
-    passes: list[tuple[int, int, int]] = field(default_factory=list)
-    """``(env, car that passed, car passed)``."""
-
-
-class RaceCore:
+class RaceCore(CoreState, CoreSpawn, CorePenalties):
     """Batched race simulation over ``num_envs`` copies of one track.
 
     Args:
@@ -195,201 +151,6 @@ class RaceCore:
         cfg = self.config
         return cfg.grid_spacing * (self.num_cars - 1) + cfg.car.length
 
-    # ------------------------------------------------------------------ state
-    def _allocate(self) -> None:
-        e, n, k, b = self.num_envs, self.num_cars, self.num_obstacles, self.num_bots
-        zeros = np.zeros
-        # The per-car fields the compiled kernels read and write every step are rows of four
-        # blocks (race.CAR_*), so that a kernel takes a block, not an array per field (a
-        # compiled call costs about 80 ns per array argument). Every field is a view into
-        # its block: update them in place, never rebind them.
-        self._car_vectors = zeros((len(race.CAR_VECTORS), e, n, 2))
-        self._car_floats = zeros((len(race.CAR_FLOATS), e, n))
-        self._car_counts = zeros((len(race.CAR_COUNTS), e, n), dtype=np.int64)
-        self._car_flags = zeros((len(race.CAR_FLAGS), e, n), dtype=bool)
-        self.position = self._field("position")
-        """Car positions in track coordinates, (E, N, 2), metres."""
-        self.yaw = self._field("yaw")
-        """Car headings, (E, N), radians."""
-        self.velocity = self._field("velocity")
-        """World-frame velocities, (E, N, 2), m/s."""
-        self.yaw_rate = self._field("yaw_rate")
-        """Yaw rates, (E, N), rad/s."""
-        self.steer = self._field("steer")
-        """Front steering angles, (E, N), radians."""
-        self.speed = self._field("speed")
-        """Forward (body-frame) speed, (E, N), m/s."""
-        self.steer_command = zeros((e, n))
-        """Last commanded steering angle, (E, N), radians."""
-        self.speed_command = zeros((e, n))
-        """Last commanded speed, (E, N), m/s."""
-        self.s = self._field("s")
-        """Arc position on the centre line, (E, N), metres in [0, L)."""
-        self.d = self._field("d")
-        """Signed lateral offset from the centre line, (E, N), metres, left positive."""
-        self.distance = self._field("distance")
-        """Unwrapped race distance from the start line, (E, N), metres."""
-        self.start_distance = self._field("start_distance")
-        """Race distance at the start of the episode, (E, N), metres."""
-        self.lap_origin = self._field("lap_origin")
-        """Distance from which laps are counted (start line in races), (E, N), metres."""
-        self.laps = self._field("laps")
-        """Completed laps, (E, N)."""
-        self.lap_start_time = zeros((e, n))
-        """Simulated time at which the current lap started, (E, N), seconds."""
-        self.last_lap_time = self._field("last_lap_time")
-        self.last_lap_time[...] = np.inf
-        """Time of the last completed lap, (E, N), seconds (inf: none yet)."""
-        self.best_lap_time = self._field("best_lap_time")
-        self.best_lap_time[...] = np.inf
-        """Best valid lap time, (E, N), seconds (inf: none yet)."""
-        self.lap_times: list[list[list[float]]] = [[[] for _ in range(n)] for _ in range(e)]
-        """Lap times of every car, ``lap_times[env][car]``, seconds (few appends per lap)."""
-        self.lap_valid: list[list[list[bool]]] = [[[] for _ in range(n)] for _ in range(e)]
-        """Whether each lap was valid (resets within the limit)."""
-        self.lap_resets = zeros((e, n), dtype=np.int64)
-        """Resets during the current lap, (E, N)."""
-        self.resets = self._field("resets")
-        """Resets (re-placements) over the episode, (E, N)."""
-        self.penalties = self._field("penalties")
-        """Time penalties received, (E, N)."""
-        self.penalty_time = zeros((e, n))
-        """Total penalty seconds received, (E, N)."""
-        self.frozen_until = self._field("frozen_until")
-        """Simulated time until which a penalised car is frozen, (E, N), seconds."""
-        self.pending_replace = zeros((e, n), dtype=bool)
-        """The car is frozen and will be put back on track when its penalty ends."""
-        self.waiting = zeros((e, n), dtype=bool)
-        """The car served its penalty but found no re-placement spot clear of every body: it
-        waits, frozen and parked off the track (so it blocks nobody), until one clears;
-        ``final_position`` and ``final_yaw`` hold its last pose on the track, (E, N)."""
-        self.replace_distance = zeros((e, n))
-        """Race distance at which a penalised car is put back, (E, N), metres."""
-        self.done = self._field("done")
-        """The car's episode is over (finished, retired or truncated); it is parked."""
-        self.finished = self._field("finished")
-        """The car reached the lap target."""
-        self.finish_time = np.full((e, n), np.inf)
-        """Simulated time at which the car finished, (E, N), seconds."""
-        self.reverse_count = self._field("reverse_count")
-        self.immobile_count = self._field("immobile_count")
-        self.off_tracks = zeros((e, n), dtype=np.int64)
-        """Off-track infractions over the episode, (E, N)."""
-        self.crashes = zeros((e, n), dtype=np.int64)
-        """Crashes at fault over the episode, (E, N)."""
-        self.collisions = zeros((e, n), dtype=np.int64)
-        """Contacts of any kind over the episode, (E, N)."""
-        self.overtakes = self._field("overtakes")
-        """On-track passes made over the episode, (E, N)."""
-        self.overtaken = self._field("overtaken")
-        """Times passed over the episode, (E, N)."""
-        self.defences = self._field("defences")
-        """Defences over the episode, (E, N)."""
-        self.rank = self._field("rank")
-        """Race position, 1 = leader, (E, N)."""
-        self.rank[...] = 1
-        self._flatten_dynamics()
-        self.time = zeros(e)
-        """Simulated time of each env copy, (E,), seconds."""
-        self.steps = zeros(e, dtype=np.int64)
-        """Steps taken in the episode of each env copy, (E,)."""
-        self.obstacle_s = zeros((e, k))
-        """Arc position of each obstacle, (E, K), metres."""
-        self.obstacle_lane = zeros((e, k))
-        """Lane of each obstacle, (E, K): +1 left, -1 right."""
-        self.obstacle_d = zeros((e, k))
-        """Lateral offset of each obstacle from the centre line, (E, K), metres."""
-        self.obstacle_position = zeros((e, k, 2))
-        """Obstacle centres in track coordinates, (E, K, 2), metres."""
-        self.obstacle_yaw = zeros((e, k))
-        """Obstacle headings, (E, K), radians."""
-        self.bot_clock = zeros(e)
-        """Seconds the bots of each copy have driven (their pauses excluded), (E,)."""
-        self.bot_pause_until = zeros(e)
-        """Simulated time until which the bots of each copy stand still, (E,), seconds."""
-        self.bot_pauses = zeros(e, dtype=np.int64)
-        """Bot pauses (a bot ran into a car ahead) over the episode, (E,)."""
-        self.bot_start = zeros((e, b))
-        """Unwrapped arc position of each bot at the start of the episode, (E, B), metres."""
-        self.bot_distance = zeros((e, b))
-        """Unwrapped arc position, ``bot_start + bot_speed * bot_clock``, (E, B), metres."""
-        self.bot_s = zeros((e, b))
-        """Arc position on the centre line, (E, B), metres in [0, L)."""
-        self.bot_d = zeros((e, b))
-        """Signed lateral offset from the centre line, (E, B), metres, left positive."""
-        self.bot_lane = zeros((e, b))
-        """Lane each bot is in, or heading to during a lane change, (E, B): +1 left, -1 right."""
-        self.bot_lane_from = zeros((e, b))
-        """Lane each bot's last lane change started from, (E, B) (equal to ``bot_lane``
-        before the first change)."""
-        self.bot_change_start = np.full((e, b), -np.inf)
-        """Bot clock at which the last lane change started, (E, B), seconds (-inf: none)."""
-        self.bot_next_change = np.full((e, b), np.inf)
-        """Bot clock at which the next lane change starts, (E, B), seconds (inf: never)."""
-        self.bot_position = zeros((e, b, 2))
-        """Bot centres in track coordinates, (E, B, 2), metres."""
-        self.bot_yaw = zeros((e, b))
-        """Bot headings, (E, B), radians in [-pi, pi)."""
-        self.bot_velocity = zeros((e, b, 2))
-        """Bot velocities over the last step, (E, B, 2), m/s (world frame)."""
-        self.bot_speed = zeros((e, b))
-        """Bot speed along the track over the last step, (E, B), m/s (0 while paused)."""
-        self._bot_moved = zeros(e)
-        self.final_position = zeros((e, n, 2))
-        """Where each car was when its episode ended, before it was parked, (E, N, 2), metres
-        (logs and DeepRacer params of the last step read it; stale while the car races)."""
-        self.final_yaw = zeros((e, n))
-        """Heading of each car when its episode ended, (E, N), radians."""
-        self._parked = zeros((e, n), dtype=bool)
-        # Scratch for the per-step projection: every car's centre, then the wheels of the
-        # cars near an edge.
-        capacity = e * n * (1 + len(self._wheels))
-        self._points = zeros((capacity, 2))
-        self._selected = zeros(capacity, dtype=bool)
-        # Rows: each car's displacement this step, then the s and d of the projected points.
-        self._scratch = zeros((3, capacity))
-        self._wheel_first = zeros(e * n, dtype=np.int64)
-        self._no_cars = zeros((e, n), dtype=bool)
-        self._no_cars.flags.writeable = False
-        self._zero_counts = zeros((e, n), dtype=np.int64)
-        self._zero_counts.flags.writeable = False
-        self._racing = np.ones((e, n), dtype=bool)
-        self._pending_any = False
-        # The pair kernel's arrays, (E, N, N) rows of two blocks (race.PAIR_*).
-        self._pair_floats = zeros((len(race.PAIR_FLOATS), e, n, n))
-        self._pair_flags = zeros((len(race.PAIR_FLAGS), e, n, n), dtype=bool)
-        for _, names in _BLOCKS[4:]:
-            for name in names:
-                setattr(self, name, self._field(name))
-
-    def _field(self, name: str) -> npt.NDArray[np.generic]:
-        """The view of the per-car field ``name`` in its block (see ``_allocate``)."""
-        for block, names in _BLOCKS:
-            if name in names:
-                return getattr(self, block)[names.index(name)]
-        raise KeyError(name)
-
-    def _flatten_dynamics(self) -> None:
-        # The dynamics kernel's (C,) views of the car state, cut once (it runs every step).
-        self._flat_dynamics = (self.yaw.reshape(-1), self.velocity.reshape(-1, 2),
-                               self.yaw_rate.reshape(-1), self.steer.reshape(-1))
-
-    def __getstate__(self) -> dict[str, object]:
-        # Pickling copies every array on its own, which would cut the fields off their
-        # blocks: only the blocks travel, and the views are cut again on arrival.
-        state = self.__dict__.copy()
-        for _, names in _BLOCKS:
-            for name in names:
-                del state[name]
-        del state["_flat_dynamics"]
-        return state
-
-    def __setstate__(self, state: dict[str, object]) -> None:
-        self.__dict__.update(state)
-        for _, names in _BLOCKS:
-            for name in names:
-                setattr(self, name, self._field(name))
-        self._flatten_dynamics()
 
     @property
     def racing(self) -> BoolArray:
@@ -477,114 +238,6 @@ class RaceCore:
             self._set_direction(self._alternated())
         self._spawn(mask, slots, start)
 
-    def _spawn(self, mask: BoolArray, slots: IntArray | None,
-               start: FloatArray | None = None) -> None:
-        cfg, track = self.config, self.track
-        m = int(mask.sum())
-        n = self.num_cars
-        if slots is None:
-            slot = spawn.grid_assignment(self.rng, m, n, cfg.grid == "random")
-        else:
-            slot = np.broadcast_to(np.asarray(slots, dtype=np.int64), (m, n))
-            if sorted(slot[0].tolist()) != list(range(n)):
-                raise ValueError(f"slots must be a permutation of 0..{n - 1}, got {slot[0]}")
-        offset, lane = spawn.grid_slots(n, cfg.grid_spacing, self.inner_sign)
-        car_offset = offset[slot]
-        line = np.zeros((m, 1))
-        if start is None and cfg.round_robin_starts:
-            # DeepRacer: start_ndist += ROUND_ROBIN_ADVANCE_DIST at every new episode.
-            start = np.mod(self.episodes[mask] * cfg.round_robin_advance, 1.0) * track.length
-        if start is not None:
-            line = np.asarray(start, dtype=np.float64).reshape(m, 1)
-            car_offset = car_offset + line
-        self.episodes[mask] += 1
-        car_lane = lane[slot]
-        s = np.mod(car_offset, track.length)
-        d = spawn.lane_offset(track, s, car_lane)
-        pos, yaw = spawn.poses_on_track(track, s, d)
-        self.position[mask] = pos
-        self.yaw[mask] = yaw
-        self.velocity[mask] = 0.0
-        self.yaw_rate[mask] = 0.0
-        self.steer[mask] = 0.0
-        self.speed[mask] = 0.0
-        self.steer_command[mask] = 0.0
-        self.speed_command[mask] = 0.0
-        self.s[mask] = s
-        self.d[mask] = d
-        self.distance[mask] = car_offset
-        self.start_distance[mask] = car_offset
-        # Races count laps from the start line; training counts them from each car's start.
-        self.lap_origin[mask] = car_offset if self.rules.mode == "training" else line
-        for name in ("laps", "lap_resets", "resets", "penalties", "reverse_count",
-                     "immobile_count", "off_tracks", "crashes", "collisions", "overtakes",
-                     "overtaken", "defences"):
-            getattr(self, name)[mask] = 0
-        for name in ("lap_start_time", "penalty_time", "frozen_until", "replace_distance"):
-            getattr(self, name)[mask] = 0.0
-        for name in ("last_lap_time", "best_lap_time", "finish_time"):
-            getattr(self, name)[mask] = np.inf
-        self.pending_replace[mask] = False
-        self.waiting[mask] = False
-        self._parked[mask] = False
-        self.done[mask] = False
-        self.finished[mask] = False
-        self.time[mask] = 0.0
-        self.steps[mask] = 0
-        self._pressure[mask] = 0.0
-        self._faster[mask] = False
-        for env in np.flatnonzero(mask).tolist():
-            self.lap_times[env] = [[] for _ in range(n)]
-            self.lap_valid[env] = [[] for _ in range(n)]
-        if self.num_obstacles:
-            obs_s, obs_lane = spawn.obstacle_layout(
-                track, self.rng, m, self.num_obstacles, cfg.obstacle_positions,
-                cfg.randomize_obstacles, self.inner_sign,
-                grid_length=cfg.grid_spacing * (n - 1) + cfg.car.length)
-            obs_d = spawn.lane_offset(track, obs_s, obs_lane)
-            opos, oyaw = spawn.poses_on_track(track, obs_s, obs_d)
-            self.obstacle_s[mask] = np.mod(obs_s, track.length)
-            self.obstacle_lane[mask] = obs_lane
-            self.obstacle_d[mask] = obs_d
-            self.obstacle_position[mask] = opos
-            self.obstacle_yaw[mask] = oyaw
-        if self.num_bots:
-            self._spawn_bots(mask, line[:, 0])
-        self._racing = ~self.done & self._penalty_over()
-        self._pending_any = bool(self.pending_replace.any())
-        self._update_ranks()
-        self._gap[...] = self.distance[:, :, None] - self.distance[:, None, :]
-        self._sync_physics()
-
-    def _spawn_bots(self, mask: BoolArray, line: FloatArray) -> None:
-        """Lay out the bots of the copies in ``mask`` from their start points ``line`` (M,)."""
-        cfg, track = self.config, self.track
-        m, b = int(mask.sum()), self.num_bots
-        start, lane = spawn.bot_layout(track.length, self.rng, m, b, cfg.randomize_bots,
-                                       self.inner_sign, line, self._grid_length())
-        if cfg.bot_lane_change:
-            # DeepRacer: the first change starts uniform(lower, upper) seconds after the start.
-            first = self.rng.uniform(cfg.bot_lane_change_min, cfg.bot_lane_change_max, (m, b))
-        else:
-            first = np.full((m, b), np.inf)
-        self.bot_clock[mask] = 0.0
-        self.bot_pause_until[mask] = 0.0
-        self.bot_pauses[mask] = 0
-        self.bot_start[mask] = start
-        self.bot_lane[mask] = lane
-        self.bot_lane_from[mask] = lane
-        self.bot_change_start[mask] = -np.inf
-        self.bot_next_change[mask] = first
-        self.bot_velocity[mask] = 0.0
-        self.bot_speed[mask] = 0.0
-        distance, s, d, position, yaw = bots.bot_poses(
-            self.lookup, start, lane, lane, self.bot_change_start[mask], np.zeros(m),
-            self._bot_duration, cfg.bot_speed)
-        self.bot_distance[mask] = distance
-        self.bot_s[mask] = s
-        self.bot_d[mask] = d
-        self.bot_position[mask] = position
-        self.bot_yaw[mask] = yaw
 
     def _move_bots(self) -> None:
         """Advance the bots of every copy over the coming step and command their bodies.
@@ -785,34 +438,6 @@ class RaceCore:
             np.stack([lut.width_left, lut.width_right]))
         return self._rule_args
 
-    def _infractions(self, infraction: BoolArray, off_track: BoolArray, crash: BoolArray,
-                     reversed_: BoolArray, immobilised: BoolArray,
-                     prev_distance: FloatArray) -> BoolArray:
-        """Apply the rules' consequence of each infraction; return the penalised cars."""
-        rules = self.rules
-        self.reverse_count *= ~infraction
-        self.immobile_count *= ~infraction
-        if rules.mode == "training":
-            self.done |= infraction
-            return self._no_cars
-        penalty = np.maximum.reduce([
-            off_track * rules.off_track_penalty,
-            crash * rules.crash_penalty,
-            reversed_ * rules.reversed_penalty,
-            immobilised * rules.immobilised_penalty])
-        self.penalties += infraction
-        self.penalty_time += penalty * infraction
-        self.frozen_until[...] = np.where(infraction, self.time[:, None] + penalty,
-                                          self.frozen_until)
-        self.pending_replace |= infraction
-        self._pending_any = True
-        # Off track, reversed or stuck: back to the last valid progress; a crash leaves the
-        # car on the surface, where it is.
-        back = off_track | reversed_ | immobilised
-        self.replace_distance = np.where(
-            infraction, np.where(back, prev_distance, self.distance), self.replace_distance)
-        return infraction.copy()
-
     def _complete_laps(self, completed: BoolArray, laps: IntArray,
                        step_distance: FloatArray) -> BoolArray:
         """Record lap times for cars that completed a lap; return those that finished."""
@@ -842,76 +467,6 @@ class RaceCore:
             self.done |= finished
         return finished
 
-    def _replace(self, mask: BoolArray) -> BoolArray:
-        """Put frozen cars back on the nearest lane at their re-placement distance, on the
-        first candidate spot clear of every other body (``h2h_racing.replacement``).
-
-        A car with no clear spot stays frozen for one more step (the clock runs), parked off
-        the track (``waiting``), and is tried again then. Returns the cars placed, (E, N).
-        """
-        track, cfg = self.track, self.config
-        env_idx, car_idx = np.nonzero(mask)
-        target = self.replace_distance[env_idx, car_idx]
-        lane = np.where(self.d[env_idx, car_idx] >= 0.0, 1.0, -1.0)
-        cand_dist, cand_lane = spawn.replacement_candidates(track, target, lane, REPLACE_STEP,
-                                                            REPLACE_TRIES)
-        cand_s = np.mod(cand_dist, track.length)
-        cand_d = spawn.lane_offset(track, cand_s, cand_lane)
-        cand_pos = track.point_at(cand_s, cand_d)
-        choice = np.empty(len(env_idx), dtype=np.int64)
-        place_kernel(env_idx, car_idx, cand_pos, track.heading_at(cand_s), self.position,
-                     self.yaw, self.obstacle_position, self.obstacle_yaw, self.bot_position,
-                     self.bot_yaw, np.array([cfg.car.length, cfg.car.width]),
-                     np.array([cfg.obstacle_length, cfg.obstacle_width]), REPLACE_GAP, choice)
-        ok = choice >= 0
-        if not ok.all():
-            wait_env, wait_car = env_idx[~ok], car_idx[~ok]
-            self.frozen_until[wait_env, wait_car] = self.time[wait_env] + self.dt
-            self._wait_off_track(wait_env, wait_car)
-        env_idx, car_idx, choice = env_idx[ok], car_idx[ok], choice[ok]
-        rows = np.flatnonzero(ok)
-        self.s[env_idx, car_idx] = cand_s[rows, choice]
-        self.d[env_idx, car_idx] = cand_d[rows, choice]
-        self.distance[env_idx, car_idx] = cand_dist[rows, choice]
-        self.velocity[env_idx, car_idx] = 0.0
-        self.yaw_rate[env_idx, car_idx] = 0.0
-        self.steer[env_idx, car_idx] = 0.0
-        self.speed[env_idx, car_idx] = 0.0
-        self.pending_replace[env_idx, car_idx] = False
-        self.waiting[env_idx, car_idx] = False
-        self.resets[env_idx, car_idx] += 1
-        self.lap_resets[env_idx, car_idx] += 1
-        placed = np.zeros_like(mask)
-        placed[env_idx, car_idx] = True
-        return placed
-
-    def _wait_off_track(self, env_idx: IntArray, car_idx: IntArray) -> None:
-        """Park cars that found no clear spot while they wait: left where they stopped, cars
-        waiting next to each other could block each other's spots for good."""
-        first = ~self.waiting[env_idx, car_idx]
-        on_env, on_car = env_idx[first], car_idx[first]
-        self.final_position[on_env, on_car] = self.position[on_env, on_car]
-        self.final_yaw[on_env, on_car] = self.yaw[on_env, on_car]
-        self.position[env_idx, car_idx] = self._park[car_idx]
-        self.velocity[env_idx, car_idx] = 0.0
-        self.yaw_rate[env_idx, car_idx] = 0.0
-        self.speed[env_idx, car_idx] = 0.0
-        self.waiting[env_idx, car_idx] = True
-
-    def _park_cars(self, mask: BoolArray) -> None:
-        """Move cars whose episode ended off the track, where nobody can hit them."""
-        env_idx, car_idx = np.nonzero(mask)
-        # A waiting car is parked already; its last pose on the track is kept.
-        on_track = ~self.waiting[env_idx, car_idx]
-        on_env, on_car = env_idx[on_track], car_idx[on_track]
-        self.final_position[on_env, on_car] = self.position[on_env, on_car]
-        self.final_yaw[on_env, on_car] = self.yaw[on_env, on_car]
-        self.waiting[env_idx, car_idx] = False
-        self.position[env_idx, car_idx] = self._park[car_idx]
-        self.velocity[env_idx, car_idx] = 0.0
-        self.yaw_rate[env_idx, car_idx] = 0.0
-        self.speed[env_idx, car_idx] = 0.0
-        self._parked[env_idx, car_idx] = True
 
     def _update_ranks(self) -> None:
         race._rank_kernel(self.distance, self.finished, self.finish_time, self.best_lap_time,

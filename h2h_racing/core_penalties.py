@@ -1,0 +1,122 @@
+"""Infractions in the batched core: ending or freezing cars, putting them back, parking them.
+
+Training rules end a car's episode at an infraction; race rules freeze it for a time penalty
+and then put it back on the nearest lane at its re-placement distance, on the first spot clear
+of every other body (``h2h_racing.replacement``). Cars whose episode ended are parked off the
+track. ``RaceCore`` (``h2h_racing.core``) mixes ``CorePenalties`` in.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from h2h_racing import spawn
+from h2h_racing.replacement import REPLACE_GAP, REPLACE_STEP, REPLACE_TRIES, place_kernel
+
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+IntArray = npt.NDArray[np.int64]
+
+
+class CorePenalties:
+    """Infraction consequences, re-placement and parking of ``RaceCore``'s cars (a mixin)."""
+
+    def _infractions(self, infraction: BoolArray, off_track: BoolArray, crash: BoolArray,
+                     reversed_: BoolArray, immobilised: BoolArray,
+                     prev_distance: FloatArray) -> BoolArray:
+        """Apply the rules' consequence of each infraction; return the penalised cars."""
+        rules = self.rules
+        self.reverse_count *= ~infraction
+        self.immobile_count *= ~infraction
+        if rules.mode == "training":
+            self.done |= infraction
+            return self._no_cars
+        penalty = np.maximum.reduce([
+            off_track * rules.off_track_penalty,
+            crash * rules.crash_penalty,
+            reversed_ * rules.reversed_penalty,
+            immobilised * rules.immobilised_penalty])
+        self.penalties += infraction
+        self.penalty_time += penalty * infraction
+        self.frozen_until[...] = np.where(infraction, self.time[:, None] + penalty,
+                                          self.frozen_until)
+        self.pending_replace |= infraction
+        self._pending_any = True
+        # Off track, reversed or stuck: back to the last valid progress; a crash leaves the
+        # car on the surface, where it is.
+        back = off_track | reversed_ | immobilised
+        self.replace_distance = np.where(
+            infraction, np.where(back, prev_distance, self.distance), self.replace_distance)
+        return infraction.copy()
+
+    def _replace(self, mask: BoolArray) -> BoolArray:
+        """Put frozen cars back on the nearest lane at their re-placement distance, on the
+        first candidate spot clear of every other body (``h2h_racing.replacement``).
+
+        A car with no clear spot stays frozen for one more step (the clock runs), parked off
+        the track (``waiting``), and is tried again then. Returns the cars placed, (E, N).
+        """
+        track, cfg = self.track, self.config
+        env_idx, car_idx = np.nonzero(mask)
+        target = self.replace_distance[env_idx, car_idx]
+        lane = np.where(self.d[env_idx, car_idx] >= 0.0, 1.0, -1.0)
+        cand_dist, cand_lane = spawn.replacement_candidates(track, target, lane, REPLACE_STEP,
+                                                            REPLACE_TRIES)
+        cand_s = np.mod(cand_dist, track.length)
+        cand_d = spawn.lane_offset(track, cand_s, cand_lane)
+        cand_pos = track.point_at(cand_s, cand_d)
+        choice = np.empty(len(env_idx), dtype=np.int64)
+        place_kernel(env_idx, car_idx, cand_pos, track.heading_at(cand_s), self.position,
+                     self.yaw, self.obstacle_position, self.obstacle_yaw, self.bot_position,
+                     self.bot_yaw, np.array([cfg.car.length, cfg.car.width]),
+                     np.array([cfg.obstacle_length, cfg.obstacle_width]), REPLACE_GAP, choice)
+        ok = choice >= 0
+        if not ok.all():
+            wait_env, wait_car = env_idx[~ok], car_idx[~ok]
+            self.frozen_until[wait_env, wait_car] = self.time[wait_env] + self.dt
+            self._wait_off_track(wait_env, wait_car)
+        env_idx, car_idx, choice = env_idx[ok], car_idx[ok], choice[ok]
+        rows = np.flatnonzero(ok)
+        self.s[env_idx, car_idx] = cand_s[rows, choice]
+        self.d[env_idx, car_idx] = cand_d[rows, choice]
+        self.distance[env_idx, car_idx] = cand_dist[rows, choice]
+        self.velocity[env_idx, car_idx] = 0.0
+        self.yaw_rate[env_idx, car_idx] = 0.0
+        self.steer[env_idx, car_idx] = 0.0
+        self.speed[env_idx, car_idx] = 0.0
+        self.pending_replace[env_idx, car_idx] = False
+        self.waiting[env_idx, car_idx] = False
+        self.resets[env_idx, car_idx] += 1
+        self.lap_resets[env_idx, car_idx] += 1
+        placed = np.zeros_like(mask)
+        placed[env_idx, car_idx] = True
+        return placed
+
+    def _wait_off_track(self, env_idx: IntArray, car_idx: IntArray) -> None:
+        """Park cars that found no clear spot while they wait: left where they stopped, cars
+        waiting next to each other could block each other's spots for good."""
+        first = ~self.waiting[env_idx, car_idx]
+        on_env, on_car = env_idx[first], car_idx[first]
+        self.final_position[on_env, on_car] = self.position[on_env, on_car]
+        self.final_yaw[on_env, on_car] = self.yaw[on_env, on_car]
+        self.position[env_idx, car_idx] = self._park[car_idx]
+        self.velocity[env_idx, car_idx] = 0.0
+        self.yaw_rate[env_idx, car_idx] = 0.0
+        self.speed[env_idx, car_idx] = 0.0
+        self.waiting[env_idx, car_idx] = True
+
+    def _park_cars(self, mask: BoolArray) -> None:
+        """Move cars whose episode ended off the track, where nobody can hit them."""
+        env_idx, car_idx = np.nonzero(mask)
+        # A waiting car is parked already; its last pose on the track is kept.
+        on_track = ~self.waiting[env_idx, car_idx]
+        on_env, on_car = env_idx[on_track], car_idx[on_track]
+        self.final_position[on_env, on_car] = self.position[on_env, on_car]
+        self.final_yaw[on_env, on_car] = self.yaw[on_env, on_car]
+        self.waiting[env_idx, car_idx] = False
+        self.position[env_idx, car_idx] = self._park[car_idx]
+        self.velocity[env_idx, car_idx] = 0.0
+        self.yaw_rate[env_idx, car_idx] = 0.0
+        self.speed[env_idx, car_idx] = 0.0
+        self._parked[env_idx, car_idx] = True
