@@ -196,8 +196,6 @@ but not bit-for-bit. Scripted drivers (``h2h_racing.policies``) read the true st
 from __future__ import annotations
 
 import dataclasses
-import math
-import numbers
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -205,7 +203,6 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 from gymnasium import spaces
-from numba import njit
 from pettingzoo import ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
 
@@ -214,6 +211,8 @@ from h2h_racing.config import EnvConfig, RaceRules
 from h2h_racing.core import RaceCore
 from h2h_racing.deepracer.params import ParamsBuilder
 from h2h_racing.deepracer.reward import DeepRacerReward
+from h2h_racing.env_actions import EnvActions
+from h2h_racing.env_rewards import EnvRewards
 from h2h_racing.infos import InfoBuilder
 from h2h_racing.sensors.camera import CameraSensor
 from h2h_racing.sensors.lidar import LidarSensor
@@ -230,8 +229,11 @@ def _resolve_rules(rules: Any, race_type: str) -> RaceRules | None:
     raise ValueError(f"rules must be None, 'race', 'training' or a RaceRules, got {rules!r}")
 
 
-class RacingEnv(ParallelEnv):
+class RacingEnv(EnvActions, EnvRewards, ParallelEnv):
     """Head-to-head racing as a PettingZoo ParallelEnv (see the module docstring).
+
+    Its action checks and scaling are in ``h2h_racing.env_actions``; parked agents and
+    DeepRacer reward calls in ``h2h_racing.env_rewards``.
 
     Args:
         track: Catalogue name, track file path or ``Track``.
@@ -466,141 +468,6 @@ class RacingEnv(ParallelEnv):
                 agents, active, rewards_out, terminations, truncations)
         return obs, rewards_out, terminations, truncations, infos
 
-    def _park(self, active: list[str], terminations: dict[str, bool],
-              truncations: dict[str, bool]) -> None:
-        """Record how the cars that ended this step ended (parked_agents mode)."""
-        for a in active:
-            if terminations[a] or truncations[a]:
-                self._ended[a] = terminations[a]
-
-    def _parked_results(self, agents: list[str], active: list[str],
-                        rewards_out: dict[str, float],
-                        terminations: dict[str, bool], truncations: dict[str, bool],
-                        ) -> tuple[dict[str, float], dict[str, bool], dict[str, bool]]:
-        """Rewards and ends of a step with parked agents (parked_agents mode).
-
-        A parked car gets 0.0 after the step that ended its race, and reports its end only
-        when the race ends (no car racing): then every car is terminated or truncated as
-        its own race ended.
-        """
-        over = not self._active
-        ended = self._ended
-        racing = set(active)
-        for a in agents:
-            if a not in racing:
-                rewards_out[a] = 0.0
-            if a in ended:
-                if over:
-                    terminations[a] = ended[a]
-                    truncations[a] = not ended[a]
-                else:
-                    terminations[a] = truncations[a] = False
-        if over:
-            self.agents = []
-        return rewards_out, terminations, truncations
-
-    def _params_builder(self, reversed_: bool) -> ParamsBuilder:
-        """The DeepRacer params builder of one driving direction (built once)."""
-        builder = self._params_by_direction.get(reversed_)
-        if builder is None:
-            config = self.config
-            builder = ParamsBuilder(
-                self.core.track, config.car, config.num_cars,
-                obstacle_size=(config.obstacle_length, config.obstacle_width),
-                is_reversed=reversed_, camera_hfov_deg=config.camera.hfov_deg,
-                camera_forward_m=config.camera.forward_m)
-            self._params_by_direction[reversed_] = builder
-        return builder
-
-    def _deepracer_rewards(self, agents: list[str], racing: npt.NDArray[np.bool_],
-                           steer: npt.NDArray[np.float64], events: Any,
-                           ) -> tuple[list[float], list[dict[str, Any] | None]]:
-        """Call the DeepRacer reward function of every car that raced during the step.
-
-        Cars frozen by a penalty get 0.0 without a call (DeepRacer's PAUSE phase), and
-        None as params.
-        """
-        assert self._deepracer is not None and self._params is not None
-        n = self.config.num_cars
-        if self.config.action_type == "discrete":
-            # The action list's own numbers, not a round trip through radians.
-            steering_deg = np.zeros(n)
-            table = self.config.discrete_actions
-            for a, choice in zip(agents, self._chosen):
-                steering_deg[self._index[a]] = table[choice][0]
-        else:
-            steering_deg = np.degrees(steer)
-        rated = [self._index[a] for a in agents if racing[self._index[a]]]
-        params = self._params.from_core(self.core, steering_deg=steering_deg, events=events,
-                                        cars=rated)
-        reward = [0.0] * n
-        for i in rated:
-            reward[i] = self._deepracer(i, params[i])
-        return reward, params
-
-    def _parse_actions(self, actions: Any, agents: list[str],
-                       ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-        if not isinstance(actions, dict):
-            raise ValueError(f"actions must be a dict keyed by agent, got "
-                             f"{type(actions).__name__}; live agents: {agents}")
-        if actions.keys() != self._live:
-            missing = [a for a in agents if a not in actions]
-            unknown = [a for a in actions if a not in self._index]
-            if missing or unknown:
-                raise ValueError(f"actions must have one entry per racing agent {agents} "
-                                 f"(entries for cars whose race is over are ignored); missing "
-                                 f"{missing}, unknown agents {unknown} (the agents are "
-                                 f"{self.possible_agents})")
-            # Actions for cars whose race is over are not read.
-            actions = {a: actions[a] for a in agents}
-        n = self._num_cars
-        every = len(agents) == n
-        if self._continuous:
-            try:
-                values = np.array([actions[a] for a in agents], dtype=np.float64)
-            except (TypeError, ValueError) as exc:
-                raise ValueError(f"actions must be arrays of 2 numbers [steer, speed]; got "
-                                 f"{ {a: actions[a] for a in agents} }") from exc
-            if values.shape != (len(agents), 2):
-                bad = {a: np.shape(actions[a]) for a in agents if np.shape(actions[a]) != (2,)}
-                raise ValueError(f"each action must have shape (2,) = [steer, speed]; "
-                                 f"got shapes {bad}")
-            # One fresh (2, 1, N) block per step: rows steer and speed, each (1, N) as the
-            # core takes them (it keeps them as its last commands, so never reused).
-            commands = np.empty((2, 1, len(agents)))
-            if not _scale_actions(values, self._affine, commands):
-                bad = {a: actions[a] for a, row in zip(agents, values)
-                       if not np.isfinite(row).all()}
-                raise ValueError(f"actions must be finite; got NaN or inf for {bad}")
-            if every:
-                return commands[0], commands[1]
-            steer_values, speed_values = commands[0, 0], commands[1, 0]
-        else:
-            count = len(self.config.discrete_actions)
-            chosen = []
-            for a in agents:
-                value = actions[a]
-                if isinstance(value, np.ndarray) and value.ndim == 0:
-                    value = value.item()
-                integral = (isinstance(value, (numbers.Integral, np.integer))
-                            or (isinstance(value, (float, np.floating)) and float(value).is_integer()))
-                if isinstance(value, (bool, np.bool_)) or not integral or not 0 <= value < count:
-                    raise ValueError(f"action of {a} must be an integer index in "
-                                     f"[0, {count - 1}], got {value!r}")
-                chosen.append(int(value))
-            self._chosen = chosen
-            steer_values = self._discrete_steer[chosen]
-            speed_values = self._discrete_speed[chosen]
-        if every:
-            return steer_values.reshape(1, n), speed_values.reshape(1, n)
-        # Finished cars keep a zero command (the core ignores them anyway).
-        idx = [self._index[a] for a in agents]
-        steer = np.zeros((1, n))
-        speed = np.zeros((1, n))
-        steer[0, idx] = steer_values
-        speed[0, idx] = speed_values
-        return steer, speed
-
     def _observations(self) -> dict[str, Any]:
         if self._state_only:
             return dict(zip(self.possible_agents, state_observation(self.core)[0]))
@@ -644,24 +511,6 @@ class RacingEnv(ParallelEnv):
         state = self.__dict__.copy()
         state["_renderer"] = None
         return state
-
-
-@njit(cache=True)
-def _scale_actions(values, affine, commands):  # pragma: no cover
-    # Clip [steer, speed] to [-1, 1] and map to radians and m/s into commands[0] and
-    # commands[1]; False if any is NaN or inf.
-    steer_mid, steer_half, speed_mid, speed_half = affine[0], affine[1], affine[2], affine[3]
-    for i in range(values.shape[0]):
-        a = values[i, 0]
-        b = values[i, 1]
-        if not (math.isfinite(a) and math.isfinite(b)):
-            return False
-        steer = min(max(a, -1.0), 1.0) * steer_half
-        if steer_mid != 0.0:
-            steer += steer_mid
-        commands[0, 0, i] = steer
-        commands[1, 0, i] = speed_mid + min(max(b, -1.0), 1.0) * speed_half
-    return True
 
 
 def parallel_env(**kwargs: Any) -> RacingEnv:
