@@ -8,6 +8,7 @@
                      [--obs state|camera|camera_only]
                      [--opponents none|D] [--rules training|race] [--reward TERM=W,...]
                      [--init P] [--max-std S] [--teacher P] [--eval-every 50]
+                     [--race-type object_avoidance [--boxes 6] | head_to_bot [--bots 3]]
     h2h-racing evaluate --policy runs/NAME/policy.pt [--track T] [--episodes 20]
                         [--against DRIVERS [--races 20] [--laps 3]]
     h2h-racing export POLICY [--format onnx,torchscript] [--out DIR]
@@ -27,6 +28,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from h2h_racing.cli_help import DESCRIPTION, DRIVERS_HELP, EPILOG, SEED_HELP, ArgumentParser
+from h2h_racing.progress import Progress, add_progress_flag, progress_mode
 
 
 def _scale(text: str) -> float | tuple[float, float]:
@@ -95,7 +97,7 @@ def _cmd_race(args: argparse.Namespace) -> int:
         raise ValueError("--serve-seconds needs --serve")
     if args.serve_seconds is not None and args.serve_seconds < 0:
         raise ValueError(f"--serve-seconds must be >= 0, got {args.serve_seconds}")
-    progress = sys.stderr.isatty() if args.progress is None else args.progress
+    progress = progress_mode(args) == "auto"
     overrides = {}
     if args.model_metadata:
         from h2h_racing.deepracer.metadata import load_action_space
@@ -168,7 +170,8 @@ def _cmd_train(args: argparse.Namespace) -> int:
     from h2h_racing.training.train import train
 
     config = _train_config(args)
-    runner = train(config, iterations=args.iterations, out=args.out, minutes=args.minutes)
+    runner = train(config, iterations=args.iterations, out=args.out, minutes=args.minutes,
+                   progress=progress_mode(args), verbose=args.verbose)
     out = Path(args.out)
     print(f"trained {runner.current_learning_iteration} iterations -> {out / 'policy.pt'} "
           f"(rsl-rl logs and checkpoints in {out})")
@@ -202,11 +205,18 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 
 def _train_config(args: argparse.Namespace) -> object:
-    """The ``TrainConfig`` of ``train``: the ``--config`` file's fields (``TrainConfig``'s
-    defaults without one), then every flag given on the command line over them."""
-    from h2h_racing.training.config import TrainConfig
+    """The ``TrainConfig`` of ``train``: the ``--config`` file's fields (without one,
+    ``HEAD_TO_HEAD`` over ``TrainConfig``'s defaults), then every flag given on the command
+    line over them."""
+    import copy
 
+    from h2h_racing.training.config import HEAD_TO_HEAD, TrainConfig
+
+    # Without a config file, train races against racing_line and contacts cost (HEAD_TO_HEAD),
+    # unless another race type (boxes, bots) is asked for.
     data: dict[str, object] = {}
+    if args.config is None and getattr(args, "race_type", None) in (None, "head_to_head"):
+        data = copy.deepcopy(HEAD_TO_HEAD)
     if args.config is not None:
         import tomllib
 
@@ -230,8 +240,11 @@ def _train_config(args: argparse.Namespace) -> object:
         data.update(opponent=opponent, num_cars=1 if opponent is None else 2,
                     learners=None if opponent is None else 1)
     # Flags of a table change that key over the file's table.
+    race = {"race_type": args.race_type, "boxes": args.boxes, "bots": args.bots,
+            "bot_speed": args.bot_speed, "bot_lane_change": args.bot_lane_change}
     tables = {"reward": _reward_terms(args.reward) if args.reward else {},
-              "imitation": {} if args.teacher is None else {"teacher": args.teacher}}
+              "imitation": {} if args.teacher is None else {"teacher": args.teacher},
+              "race": {key: value for key, value in race.items() if value is not None}}
     for table, values in tables.items():
         if values:
             given = data.get(table, {})
@@ -295,17 +308,26 @@ def _evaluate_head_to_head(args: argparse.Namespace) -> int:
           f"(race rules: 5 s penalties), {grid}{gap}")
     print(head_to_head_header())
     results: dict[str, list] = {}
-    for opponent in args.against.split(","):
-        for track in tracks:
-            try:
-                result = head_to_head(policy, make_driver(opponent, seed=args.seed + 1), track,
-                                      races=args.races, laps=args.laps, seed=args.seed,
-                                      start=args.start, gap=args.gap)
-            except ValueError as err:
-                print(f"error: {err}", file=sys.stderr)
-                return 2
-            results.setdefault(opponent, []).append(result)
-            print(head_to_head_row(result, opponent))
+    jobs = [(opponent, track) for opponent in args.against.split(",") for track in tracks]
+    bar = Progress("evaluate", mode=progress_mode(args))
+    for k, (opponent, track) in enumerate(jobs):
+        def show(share: float, finished: int, k: int = k, opponent: str = opponent,
+                 track: str = track) -> None:
+            bar.update((k + share) / len(jobs), f"{finished}/{args.races} races vs {opponent} "
+                                                f"on {track} ({k + 1}/{len(jobs)})")
+
+        try:
+            result = head_to_head(policy, make_driver(opponent, seed=args.seed + 1), track,
+                                  races=args.races, laps=args.laps, seed=args.seed,
+                                  start=args.start, gap=args.gap, progress=show)
+        except ValueError as err:
+            bar.close()
+            print(f"error: {err}", file=sys.stderr)
+            return 2
+        results.setdefault(opponent, []).append(result)
+        bar.clear()
+        print(head_to_head_row(result, opponent), flush=True)
+    bar.close()
     for opponent, rows in results.items():
         total = combine(rows)
         print(f"{head_to_head_row(total, opponent)} ({100 * total.wins[0] / total.races:.0f} % "
@@ -357,8 +379,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="a DeepRacer reward_function file: print each car's total reward")
     race.add_argument("--model-metadata", default=None, metavar="model_metadata.json",
                       help="race with a DeepRacer action space (as the policy was trained)")
-    race.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
-                      help="show a progress bar on stderr (default: when stderr is a terminal)")
+    add_progress_flag(race)
     race.set_defaults(func=_cmd_race)
 
     train = sub.add_parser("train", help="train a policy with rsl-rl PPO (needs h2h-racing[train])")
@@ -393,18 +414,37 @@ def build_parser() -> argparse.ArgumentParser:
                             "--obs, or a state policy (shipped name or policy.pt) for a camera "
                             "student (default: none, PPO)")
     train.add_argument("--opponents", default=None,
-                       help="'none' (alone), a scripted driver name or a policy.pt, or several "
-                            "separated by commas (they share the env copies) (default: none)")
+                       help="'none' (alone: a time trial), a scripted driver name or a "
+                            "policy.pt, or several separated by commas (they share the env "
+                            "copies) (default without --config: racing_line, with a contact "
+                            "cost of -5 in the reward)")
     train.add_argument("--iterations", type=int, default=1000,
                        help="PPO (or imitation) iterations, each of --envs copies x 32 steps")
     train.add_argument("--minutes", type=float, default=None,
-                       help="stop after this much training time (checked every 10 iterations)")
+                       help="stop after this much training time (checked every 10 iterations), "
+                            "or at --iterations if that comes first")
     train.add_argument("--envs", type=int, default=None,
                        help="env copies stepped together (default: 256)")
     train.add_argument("--seed", type=int, default=None, help=SEED_HELP + " (default: 0)")
     train.add_argument("--reward-function", default=None, metavar="REWARD.py",
                        help="train on a DeepRacer reward_function(params) file (default: the "
                             "built-in reward)")
+    train.add_argument("--race-type", default=None,
+                       choices=["time_trial", "head_to_head", "object_avoidance", "head_to_bot"],
+                       help="DeepRacer race type to train for (default: a head_to_head race "
+                            "against racing_line without --config; time_trial with --opponents "
+                            "none)")
+    train.add_argument("--boxes", type=int, default=None, metavar="N",
+                       help="boxes on the lanes, re-drawn every episode in every env copy "
+                            "(default: 6 with object_avoidance, else 0)")
+    train.add_argument("--bots", type=int, default=None, metavar="N",
+                       help="bot cars per env copy (default: 3 with head_to_bot, else 0)")
+    train.add_argument("--bot-speed", type=float, default=None, metavar="M/S",
+                       help="speed of the bot cars along their lane (default: 0.75)")
+    train.add_argument("--bot-lane-change", action=argparse.BooleanOptionalAction,
+                       default=None,
+                       help="bots change lanes every 3-5 s of driving; --no-bot-lane-change "
+                            "keeps each in its lane (default: they change lanes)")
     train.add_argument("--model-metadata", default=None, metavar="model_metadata.json",
                        help="use a DeepRacer action space (discrete list or continuous ranges) "
                             "(default: continuous steering and speed)")
@@ -419,6 +459,10 @@ def build_parser() -> argparse.ArgumentParser:
                        help="also export policy.pt's actor to OUT/policy.onnx, checked "
                             "(h2h-racing export)")
     train.add_argument("--out", required=True, help="output folder, e.g. runs/speedway")
+    add_progress_flag(train)
+    train.add_argument("--verbose", action="store_true",
+                       help="print rsl-rl's block of figures after every iteration (about 40 "
+                            "lines each) instead of the progress line")
     train.set_defaults(func=_cmd_train)
 
     evaluate = sub.add_parser("evaluate", help="a policy's lap completion and lap times alone, or "
@@ -447,6 +491,7 @@ def build_parser() -> argparse.ArgumentParser:
                           help="distance the car behind starts behind the other [m of track] "
                                "with --against, a standing start (default: the grid's 0.75)")
     evaluate.add_argument("--laps", type=int, default=3, help="laps per race with --against")
+    add_progress_flag(evaluate)
     evaluate.set_defaults(func=_cmd_evaluate)
 
     export = sub.add_parser("export", help="export a trained policy to ONNX and TorchScript, "

@@ -36,10 +36,12 @@ from h2h_racing.training.config import PROCEDURAL, TrainConfig  # noqa: E402
 from h2h_racing.training.policy_file import (  # noqa: E402
     load_actor, load_init, policy_payload, save_policy)
 from h2h_racing.training.teachers import load_teacher  # noqa: E402
+from h2h_racing.training.train_progress import TrainDisplay, quiet  # noqa: E402
+from h2h_racing.progress import Mode  # noqa: E402
 
 
 def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
-          minutes: float | None = None) -> Any:
+          minutes: float | None = None, progress: Mode = "off", verbose: bool = False) -> Any:
     """Train with PPO (or distil ``config.imitation.teacher``); return the rsl-rl runner.
 
     Args:
@@ -50,28 +52,18 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
             ``policy.pt`` and, with ``config.simtrace_envs``, DeepRacer logs in
             ``out/simtrace/<car>``; None keeps nothing on disk and skips the evaluations.
         minutes: Stop after the first iteration that ends past this wall-clock budget.
+        progress: ``"auto"``: a progress line on stderr (``train_progress.TrainDisplay``:
+            iterations of the run, samples/s, mean reward, lap completion, ETA); ``"off"``:
+            none.
+        verbose: Print rsl-rl's model summaries and its block of figures after every
+            iteration (with the run's totals) instead.
     """
-    from rsl_rl.runners import DistillationRunner, OnPolicyRunner
-
     torch.manual_seed(config.seed)
     torch.set_num_threads(config.torch_threads)
     env = config.make_env(simtrace=None if out is None else Path(out) / "simtrace")
-    log_dir = None if out is None else str(Path(out))
-    if config.imitation.teacher is None:
-        runner = OnPolicyRunner(env, config.rsl_rl_dict(), log_dir=log_dir, device="cpu")
-    elif config.scripted_teacher:
-        runner = DistillationRunner(env, config.rsl_rl_dict(), log_dir=log_dir, device="cpu")
-        runner.alg.teacher_loaded = True  # the env's expert group: no weights to load
-    else:
-        teacher = load_teacher(config)
-        runner = DistillationRunner(env, config.rsl_rl_dict(teacher), log_dir=log_dir,
-                                    device="cpu")
-        # The teacher is the policy file's actor: same model config, so its weights (and its
-        # observation normaliser's statistics) load strictly.
-        load_actor(runner.alg.teacher, teacher, f"teacher {config.imitation.teacher!r}")
-        runner.alg.teacher_loaded = True
-    if config.init is not None:
-        load_init(runner, config.init)
+    with quiet(verbose):
+        runner = _runner(config, env, None if out is None else str(Path(out)))
+    display = TrainDisplay(runner, iterations, minutes, mode=progress, verbose=verbose)
     start = time.perf_counter()
     done = 0
     procedural = config.track == PROCEDURAL
@@ -93,7 +85,8 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
             step = min(step, every - done % every)
         if eval_every:
             step = min(step, eval_every - done % eval_every)
-        runner.learn(step)
+        with quiet(verbose):
+            runner.learn(step)
         # learn() also saves a checkpoint when it returns: keep only the latest of those (and
         # every save_interval one), or a run of short learn() calls fills the disk.
         last = Path(out) / f"model_{runner.current_learning_iteration}.pt" if out else None
@@ -108,15 +101,40 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
         done += step
         over_time = minutes is not None and time.perf_counter() - start > 60.0 * minutes
         if eval_every and done % eval_every == 0:
+            display.clear()
             evaluate_during_training(runner, config, Path(out), done)  # type: ignore[arg-type]
         if over_time:
             break
+    display.close()
     env.close()
     if runner.logger.writer is not None:
         runner.logger.writer.close()
     if out is not None:
         training = {"iterations": done, "seconds": time.perf_counter() - start}
         save_policy(runner, config, Path(out) / "policy.pt", training=training)
+    return runner
+
+
+def _runner(config: TrainConfig, env: Any, log_dir: str | None) -> Any:
+    """The rsl-rl runner of ``config`` on ``env`` (PPO, or distillation of a teacher), with the
+    ``init`` policy's weights loaded."""
+    from rsl_rl.runners import DistillationRunner, OnPolicyRunner
+
+    if config.imitation.teacher is None:
+        runner = OnPolicyRunner(env, config.rsl_rl_dict(), log_dir=log_dir, device="cpu")
+    elif config.scripted_teacher:
+        runner = DistillationRunner(env, config.rsl_rl_dict(), log_dir=log_dir, device="cpu")
+        runner.alg.teacher_loaded = True  # the env's expert group: no weights to load
+    else:
+        teacher = load_teacher(config)
+        runner = DistillationRunner(env, config.rsl_rl_dict(teacher), log_dir=log_dir,
+                                    device="cpu")
+        # The teacher is the policy file's actor: same model config, so its weights (and its
+        # observation normaliser's statistics) load strictly.
+        load_actor(runner.alg.teacher, teacher, f"teacher {config.imitation.teacher!r}")
+        runner.alg.teacher_loaded = True
+    if config.init is not None:
+        load_init(runner, config.init)
     return runner
 
 
@@ -132,7 +150,8 @@ def evaluate_during_training(runner: Any, config: TrainConfig, out: str | Path,
     track (``config.env_config().track``; ``speedway`` for procedural runs) it makes
     ``config.eval_episodes`` one-lap attempts (``training.evaluate.evaluate``: training rules,
     start points spread round the lap), then races one lap as car 0 (in race rules) against
-    the training opponent, or against itself in self-play, or alone, with the race's grid
+    the training opponent, or against itself in self-play, or alone (with ``[race]``'s boxes
+    and bots; the lap attempts have none), with the race's grid
     drawn from ``config.seed`` so that every evaluation of a run races the same start. The
     race is recorded to ``<out>/eval/iter_<iteration>.rrd`` when rerun-sdk is installed (a
     warning says so otherwise).
@@ -182,10 +201,9 @@ def evaluate_during_training(runner: Any, config: TrainConfig, out: str | Path,
         warnings.warn("rerun-sdk is not installed, so the evaluation race is not recorded; "
                       "pip install 'h2h-racing[viz]' to record it", stacklevel=2)
     race = run_race(env_config.track, drivers,
-                    race_type="time_trial" if config.num_cars == 1 else "head_to_head",
-                    laps=1, seed=config.seed, save=save,
+                    race_type=env_config.race_type, laps=1, seed=config.seed, save=save,
                     max_cycles=max(1, round(config.eval_race_seconds / env_config.step_dt)),
-                    **env_fields)
+                    **env_fields, **config.race.env_fields())
     mine = next(row for row in race.rows if row["agent"] == "car_0")
     scalars["race_finished"] = float(mine["finished"])
     scalars["race_position"] = float(mine["position"])

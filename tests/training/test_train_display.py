@@ -1,0 +1,79 @@
+"""train's console output: one compact progress line by default with the run's totals (also in
+--minutes mode, where learn() runs in chunks of 10), rsl-rl's block with verbose; and the
+head-to-head defaults of `h2h-racing train`."""
+
+from __future__ import annotations
+
+import io
+import re
+from pathlib import Path
+
+import pytest
+
+from h2h_racing.cli import _train_config, build_parser
+from h2h_racing.training.config import TrainConfig
+from h2h_racing.training.train import train
+
+SMALL = TrainConfig(track="oval", num_envs=4, num_steps_per_env=4, hidden_dims=(8, 8),
+                    eval_every=0)
+
+
+class Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def counts(text: str) -> list[tuple[int, str]]:
+    """(iterations done, total shown) of each progress line."""
+    return [(int(done), total) for done, total in re.findall(r"it (\d+)/(~?\d+)", text)]
+
+
+def test_default_output_is_a_few_lines_with_the_runs_totals_in_minutes_mode(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # --minutes runs learn() 10 iterations at a time: rsl-rl showed 0/10, 10/20, ...
+    train(SMALL, iterations=25, out=tmp_path, minutes=60.0, progress="auto")
+    out, err = capsys.readouterr()
+    assert "Learning iteration" not in out and "Storing git diff" not in out
+    assert "\r" not in err  # captured stderr is not a terminal
+    lines = err.splitlines()
+    assert 5 <= len(lines) <= 12, err  # a line per tenth of 25 iterations
+    shown = counts(err)
+    assert len(shown) == len(lines)
+    assert {total for _, total in shown} == {"~25"}  # the run's total, not a chunk's
+    assert shown[-1][0] == 25 and [d for d, _ in shown] == sorted(d for d, _ in shown)
+    assert "samples/s" in lines[-1] and "reward" in lines[-1]
+    assert "(60 min)" in lines[-1]
+
+
+def test_on_a_terminal_the_line_is_redrawn(tmp_path: Path,
+                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    stream = Terminal()
+    monkeypatch.setattr("sys.stderr", stream)
+    train(SMALL, iterations=4, out=tmp_path, progress="auto")
+    text = stream.getvalue()
+    assert text.count("\n") == 1 and text.count("\r") >= 1
+    assert text.rstrip("\n").split("\r")[-1].startswith("train 100% |")
+    assert counts(text)[-1] == (4, "4")
+
+
+def test_verbose_prints_rsl_rls_block_with_the_runs_totals(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    train(SMALL, iterations=12, out=tmp_path, minutes=60.0, progress="auto", verbose=True)
+    out, err = capsys.readouterr()
+    shown = re.findall(r"Learning iteration (\d+)/(\d+)", out)
+    assert [int(it) for it, _ in shown] == list(range(12))
+    assert {total for _, total in shown} == {"12"}  # not 10, then 20
+    assert "train " not in err  # no progress line besides the block
+
+
+def test_train_races_racing_line_by_default() -> None:
+    parser = build_parser()
+    config = _train_config(parser.parse_args(["train", "--out", "runs/x"]))
+    assert (config.num_cars, config.learners, config.opponent) == (2, 1, "racing_line")
+    assert config.reward.contact == -5.0
+    alone = _train_config(parser.parse_args(["train", "--out", "runs/x", "--opponents", "none"]))
+    assert (alone.num_cars, alone.opponent) == (1, None)
+    # A config file is taken as written.
+    shipped = _train_config(parser.parse_args(["train", "--out", "runs/x", "--config",
+                                               "ppo_generalist/imitate"]))
+    assert shipped.num_cars == 1 and shipped.reward.contact == 0.0
