@@ -64,7 +64,7 @@ def test_train_options_state_the_defaults_train_uses() -> None:
     """Passing the default a ``train`` option's help names changes nothing: the help of options
     that default to the config file's value (None here) tells the truth."""
     pytest.importorskip("torch")
-    from h2h_racing.cli import _train_config
+    from h2h_racing.cli_training import _train_config
 
     parser = build_parser()
     base = _train_config(parser.parse_args(["train", "--out", "x"]))

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 import torch
 
-from h2h_racing.cli import _train_config, build_parser
+from h2h_racing.cli import build_parser
+from h2h_racing.cli_training import _train_config
 from h2h_racing.config import EnvConfig, RaceRules
 from h2h_racing.training.config import TrainConfig
 from h2h_racing.training.race_settings import RaceSettings

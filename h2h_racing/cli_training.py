@@ -1,0 +1,313 @@
+"""The training subcommands of ``h2h-racing``: ``train``, ``evaluate`` and ``export``.
+
+They need the ``train`` extra only when they run; ``h2h_racing.cli`` adds them to its parser.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from h2h_racing.cli_help import SEED_HELP
+from h2h_racing.progress import Progress, add_progress_flag, progress_mode
+
+
+def _cmd_train(args: argparse.Namespace) -> int:
+    from h2h_racing.training.train import train
+
+    config = _train_config(args)
+    runner = train(config, iterations=args.iterations, out=args.out, minutes=args.minutes,
+                   progress=progress_mode(args), verbose=args.verbose)
+    out = Path(args.out)
+    print(f"trained {runner.current_learning_iteration} iterations -> {out / 'policy.pt'} "
+          f"(rsl-rl logs and checkpoints in {out})")
+    if args.simtrace:
+        print(f"DeepRacer simtrace + metrics -> {out / 'simtrace'} (deepracer-utils: "
+              f"DeepRacerLog('{out / 'simtrace' / 'car_0'}').load_training_trace())")
+    if args.onnx:
+        from h2h_racing.training.export import export_policy
+
+        # The exported actor is policy.pt's (the best iteration's with evaluation), checked.
+        print(export_policy(out / "policy.pt", out, formats="onnx").summary())
+    return 0
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    from h2h_racing.training.export import export_policy, parse_formats
+    from h2h_racing.policies.trained import shipped_policies
+
+    formats = parse_formats(args.format)
+    if args.out is not None:
+        out = Path(args.out)
+    elif args.policy in shipped_policies():
+        out = Path("exports") / args.policy
+    else:
+        out = Path(args.policy).parent
+    result = export_policy(args.policy, out, formats=formats, samples=args.samples,
+                           seed=args.seed)
+    print(result.summary())
+    print(f"inputs and outputs described in {out / 'policy.export.json'}")
+    return 0
+
+
+def _train_config(args: argparse.Namespace) -> object:
+    """The ``TrainConfig`` of ``train``: the ``--config`` file's fields (without one,
+    ``HEAD_TO_HEAD`` over ``TrainConfig``'s defaults), then every flag given on the command
+    line over them."""
+    import copy
+
+    from h2h_racing.training.config import HEAD_TO_HEAD, TrainConfig
+
+    # Without a config file, train races against racing_line and contacts cost (HEAD_TO_HEAD),
+    # unless another race type (boxes, bots) is asked for.
+    data: dict[str, object] = {}
+    if args.config is None and getattr(args, "race_type", None) in (None, "head_to_head"):
+        data = copy.deepcopy(HEAD_TO_HEAD)
+    if args.config is not None:
+        import tomllib
+
+        from h2h_racing.configs import resolve_config
+
+        try:
+            with open(resolve_config(args.config, "train"), "rb") as handle:
+                data = tomllib.load(handle)
+        except FileNotFoundError as err:
+            raise SystemExit(f"error: {err}") from None
+        except tomllib.TOMLDecodeError as err:
+            raise SystemExit(f"error: --config {args.config!r} is not valid TOML: {err}") from None
+    flags = {"track": "track", "obs": "observations", "rules": "rules", "init": "init",
+             "max_std": "max_std", "envs": "num_envs", "seed": "seed",
+             "reward_function": "reward_function", "model_metadata": "model_metadata",
+             "simtrace": "simtrace_envs", "eval_every": "eval_every"}
+    data.update({field: getattr(args, flag) for flag, field in flags.items()
+                 if getattr(args, flag) is not None})
+    if args.opponents is not None:
+        opponent = None if args.opponents == "none" else args.opponents
+        data.update(opponent=opponent, num_cars=1 if opponent is None else 2,
+                    learners=None if opponent is None else 1)
+    # Flags of a table change that key over the file's table.
+    race = {"race_type": args.race_type, "boxes": args.boxes, "bots": args.bots,
+            "bot_speed": args.bot_speed, "bot_lane_change": args.bot_lane_change}
+    tables = {"reward": _reward_terms(args.reward) if args.reward else {},
+              "imitation": {} if args.teacher is None else {"teacher": args.teacher},
+              "race": {key: value for key, value in race.items() if value is not None}}
+    for table, values in tables.items():
+        if values:
+            given = data.get(table, {})
+            data[table] = {**(given if isinstance(given, dict) else {}), **values}
+    return TrainConfig.from_dict(data, source=args.config or "train's flags")
+
+
+def _reward_terms(text: str) -> dict[str, float]:
+    """``"progress=1,crash=-10"`` -> ``{"progress": 1.0, "crash": -10.0}`` (checked names)."""
+    import dataclasses
+
+    from h2h_racing.config import RewardConfig
+
+    names = [f.name for f in dataclasses.fields(RewardConfig)]
+    weights = {}
+    for item in text.split(","):
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or name not in names:
+            raise SystemExit(f"error: --reward takes TERM=WEIGHT,... with TERM one of "
+                             f"{', '.join(names)}; got {item!r}")
+        try:
+            weights[name] = float(value)
+        except ValueError:
+            raise SystemExit(f"error: --reward {name}={value!r}: the weight must be a "
+                             "number") from None
+    return weights
+
+
+def _cmd_evaluate(args: argparse.Namespace) -> int:
+    from h2h_racing.training.evaluate import Evaluation, evaluate
+
+    if args.against:
+        return _evaluate_head_to_head(args)
+    print(f"{args.track}: {args.episodes} one-lap attempts from start points spread round the "
+          "lap (training rules: an infraction ends the attempt)")
+    drivers = [d for d in [args.policy, *args.baseline.split(",")] if d]
+    width = max(28, *map(len, drivers))
+    print(Evaluation.header(width))
+    for driver in drivers:
+        print(evaluate(driver, args.track, episodes=args.episodes, seed=args.seed).row(width))
+    return 0
+
+
+def _evaluate_head_to_head(args: argparse.Namespace) -> int:
+    from h2h_racing.training.evaluate import (combine, head_to_head, head_to_head_header,
+                                            head_to_head_row)
+    from h2h_racing.policies import make_driver
+    from h2h_racing.track_io import list_tracks
+
+    if args.start == "both" and (args.races < 2 or args.races % 2):
+        print(f"error: --races must be an even number >= 2 with --start both (every start in "
+              f"both seat orders), got {args.races}", file=sys.stderr)
+        return 2
+    tracks = list_tracks() if args.track == "all" else args.track.split(",")
+    policy = make_driver(args.policy, seed=args.seed)
+    grid = {"both": "every start point in both seat orders", "behind": "the policy starts "
+            "behind", "front": "the policy starts in front"}[args.start]
+    gap = f", {args.gap:g} m grid gap" if args.gap is not None else ""
+    print(f"{args.policy}: {args.races} two-car races of {args.laps} laps per track and opponent "
+          f"(race rules: 5 s penalties), {grid}{gap}")
+    print(head_to_head_header())
+    results: dict[str, list] = {}
+    jobs = [(opponent, track) for opponent in args.against.split(",") for track in tracks]
+    bar = Progress("evaluate", mode=progress_mode(args))
+    for k, (opponent, track) in enumerate(jobs):
+        def show(share: float, finished: int, k: int = k, opponent: str = opponent,
+                 track: str = track) -> None:
+            bar.update((k + share) / len(jobs), f"{finished}/{args.races} races vs {opponent} "
+                                                f"on {track} ({k + 1}/{len(jobs)})")
+
+        try:
+            result = head_to_head(policy, make_driver(opponent, seed=args.seed + 1), track,
+                                  races=args.races, laps=args.laps, seed=args.seed,
+                                  start=args.start, gap=args.gap, progress=show)
+        except ValueError as err:
+            bar.close()
+            print(f"error: {err}", file=sys.stderr)
+            return 2
+        results.setdefault(opponent, []).append(result)
+        bar.clear()
+        print(head_to_head_row(result, opponent), flush=True)
+    bar.close()
+    for opponent, rows in results.items():
+        total = combine(rows)
+        print(f"{head_to_head_row(total, opponent)} ({100 * total.wins[0] / total.races:.0f} % "
+              "won)")
+    print("won: the policy's wins (of all races, from the slot behind, from the front slot); "
+          "per race: the policy's / the opponent's; a defence: the other car was under 1 m "
+          "behind for 2 s, faster at some moment, and dropped back without passing")
+    return 0
+
+
+def add_training_commands(sub: argparse._SubParsersAction) -> None:
+    """Add ``train``, ``evaluate`` and ``export`` to the ``h2h-racing`` subparsers."""
+    train = sub.add_parser("train", help="train a policy with rsl-rl PPO (needs h2h-racing[train])")
+    train.add_argument("--config", default=None, metavar="TRAIN.toml|NAME",
+                       help="TrainConfig fields from a TOML file, or a shipped policy's "
+                            "training step by name: ppo_generalist/imitate, "
+                            "ppo_generalist/finetune, racing_line_student/imitate; flags given "
+                            "override them")
+    train.add_argument("--track", default=None,
+                       help="catalogue name, track file, random:<seed>, or 'procedural' (a new "
+                            "random track every 10 iterations; a config's [procedural] table "
+                            "sets them) (default: speedway)")
+    train.add_argument("--obs", default=None, choices=["state", "camera", "camera_only"],
+                       help="actor input: the state vector; camera + state vector; or camera + "
+                            "own speed and steering (camera_only, DeepRacer's setting) "
+                            "(default: state)")
+    train.add_argument("--rules", default=None, choices=["training", "race"],
+                       help="training: an infraction ends the episode (DeepRacer's training); "
+                            "race: a time penalty and the car goes on (default: training)")
+    train.add_argument("--reward", default=None, metavar="TERM=W,...",
+                       help="built-in reward weights, e.g. progress=1,crash=-10,overtake=3,"
+                            "time=-0.05 (default: RewardConfig's weights for unnamed terms)")
+    train.add_argument("--init", default=None, metavar="POLICY",
+                       help="start from this policy's actor (shipped name or policy.pt): "
+                            "fine-tuning (default: none, random weights)")
+    train.add_argument("--max-std", type=float, default=None, metavar="S",
+                       help="upper bound of the policy's standard deviation (actions in "
+                            "[-1, 1]); unbounded by default")
+    train.add_argument("--teacher", default=None, metavar="POLICY",
+                       help="imitate instead of PPO (rsl-rl Distillation, the student drives): "
+                            "a scripted driver (racing_line, pure_pursuit, blocker) for any "
+                            "--obs, or a state policy (shipped name or policy.pt) for a camera "
+                            "student (default: none, PPO)")
+    train.add_argument("--opponents", default=None,
+                       help="'none' (alone: a time trial), a scripted driver name or a "
+                            "policy.pt, or several separated by commas (they share the env "
+                            "copies) (default without --config: racing_line, with a contact "
+                            "cost of -5 in the reward)")
+    train.add_argument("--iterations", type=int, default=1000,
+                       help="PPO (or imitation) iterations, each of --envs copies x 32 steps")
+    train.add_argument("--minutes", type=float, default=None,
+                       help="stop after this much training time (checked every 10 iterations), "
+                            "or at --iterations if that comes first")
+    train.add_argument("--envs", type=int, default=None,
+                       help="env copies stepped together (default: 256)")
+    train.add_argument("--seed", type=int, default=None, help=SEED_HELP + " (default: 0)")
+    train.add_argument("--reward-function", default=None, metavar="REWARD.py",
+                       help="train on a DeepRacer reward_function(params) file (default: the "
+                            "built-in reward)")
+    train.add_argument("--race-type", default=None,
+                       choices=["time_trial", "head_to_head", "object_avoidance", "head_to_bot"],
+                       help="DeepRacer race type to train for (default: a head_to_head race "
+                            "against racing_line without --config; time_trial with --opponents "
+                            "none)")
+    train.add_argument("--boxes", type=int, default=None, metavar="N",
+                       help="boxes on the lanes, re-drawn every episode in every env copy "
+                            "(default: 6 with object_avoidance, else 0)")
+    train.add_argument("--bots", type=int, default=None, metavar="N",
+                       help="bot cars per env copy (default: 3 with head_to_bot, else 0)")
+    train.add_argument("--bot-speed", type=float, default=None, metavar="M/S",
+                       help="speed of the bot cars along their lane (default: 0.75)")
+    train.add_argument("--bot-lane-change", action=argparse.BooleanOptionalAction,
+                       default=None,
+                       help="bots change lanes every 3-5 s of driving; --no-bot-lane-change "
+                            "keeps each in its lane (default: they change lanes)")
+    train.add_argument("--model-metadata", default=None, metavar="model_metadata.json",
+                       help="use a DeepRacer action space (discrete list or continuous ranges) "
+                            "(default: continuous steering and speed)")
+    train.add_argument("--simtrace", type=int, default=None, metavar="N",
+                       help="write DeepRacer simtrace + metrics of N env copies (<= 10) to "
+                            "OUT/simtrace (default: 0, none)")
+    train.add_argument("--eval-every", type=int, default=None, metavar="N",
+                       help="every N iterations, evaluate the policy (tensorboard Eval/...) and "
+                            "record a race to OUT/eval/iter_<n>.rrd; 0 turns it off "
+                            "(default: 50)")
+    train.add_argument("--onnx", action=argparse.BooleanOptionalAction, default=True,
+                       help="also export policy.pt's actor to OUT/policy.onnx, checked "
+                            "(h2h-racing export)")
+    train.add_argument("--out", required=True, help="output folder, e.g. runs/speedway")
+    add_progress_flag(train)
+    train.add_argument("--verbose", action="store_true",
+                       help="print rsl-rl's block of figures after every iteration (about 40 "
+                            "lines each) instead of the progress line")
+    train.set_defaults(func=_cmd_train)
+
+    evaluate = sub.add_parser("evaluate", help="a policy's lap completion and lap times alone, or "
+                                                  "its head-to-head record (--against)")
+    evaluate.add_argument("--policy", required=True,
+                          help="policy.pt, a shipped policy or a scripted driver name")
+    evaluate.add_argument("--track", default="speedway",
+                          help="catalogue name or track file; with --against also a comma list "
+                               "or 'all'")
+    evaluate.add_argument("--episodes", type=int, default=20,
+                          help="one-lap attempts, from start points spread round the lap")
+    evaluate.add_argument("--seed", type=int, default=0, help=SEED_HELP)
+    evaluate.add_argument("--baseline", default="racing_line",
+                          help="comma-separated drivers evaluated on the same start points")
+    evaluate.add_argument("--against", default=None, metavar="DRIVERS",
+                          help="comma-separated opponents: race the policy head to head against "
+                               "each (2-car races; --track may be a comma list or 'all')")
+    evaluate.add_argument("--races", type=int, default=20,
+                          help="races per track and opponent with --against (even with --start "
+                               "both: both seat orders of every start)")
+    evaluate.add_argument("--start", default="both", choices=["both", "behind", "front"],
+                          help="the policy's grid slot with --against: both (alternating on "
+                               "the same start points), behind (every win is a pass) or front "
+                               "(default: both)")
+    evaluate.add_argument("--gap", type=float, default=None, metavar="METRES",
+                          help="distance the car behind starts behind the other [m of track] "
+                               "with --against, a standing start (default: the grid's 0.75)")
+    evaluate.add_argument("--laps", type=int, default=3, help="laps per race with --against")
+    add_progress_flag(evaluate)
+    evaluate.set_defaults(func=_cmd_evaluate)
+
+    export = sub.add_parser("export", help="export a trained policy to ONNX and TorchScript, "
+                                           "checked against the original")
+    export.add_argument("policy", help="a shipped policy name or a policy.pt")
+    export.add_argument("--format", default="onnx,torchscript",
+                        help="comma-separated formats: onnx, torchscript")
+    export.add_argument("--out", default=None, metavar="DIR",
+                        help="output folder (default: the policy.pt's folder, or "
+                             "exports/NAME for a shipped policy)")
+    export.add_argument("--samples", type=int, default=64,
+                        help="sample observations the exports are checked on")
+    export.add_argument("--seed", type=int, default=0, help="seed of the sample races")
+    export.set_defaults(func=_cmd_export)
