@@ -37,6 +37,7 @@ from h2h_racing.track_geometry import _centre_geometry, _check_no_fold, _check_s
 from h2h_racing.track_projection import Projector, project_kernel
 
 FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
 
 CAR_WIDTH = 0.20
 """Width of a car [m]; a track must be at least two car widths wide everywhere."""
