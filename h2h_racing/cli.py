@@ -29,6 +29,7 @@ from pathlib import Path
 
 from h2h_racing.cli_help import DESCRIPTION, DRIVERS_HELP, EPILOG, SEED_HELP, ArgumentParser
 from h2h_racing.cli_training import add_training_commands
+from h2h_racing.config_rules import RACE_TYPES
 from h2h_racing.progress import add_progress_flag, progress_mode
 
 
@@ -178,7 +179,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="catalogue name, track file, or 'all' for every catalogue track")
     race.add_argument("--drivers", default="racing_line,pure_pursuit", help=DRIVERS_HELP)
     race.add_argument("--race-type", default="head_to_head",
-                      choices=["head_to_head", "time_trial", "object_avoidance", "head_to_bot"],
+                      choices=RACE_TYPES,
                       help="race preset: laps, penalties, obstacles or bot cars (DeepRacer's "
                            "race types)")
     race.add_argument("--bots", type=int, default=None, metavar="N",

@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 from h2h_racing.cli_help import SEED_HELP
+from h2h_racing.config_rules import RACE_TYPES
 from h2h_racing.progress import Progress, add_progress_flag, progress_mode
 
 
@@ -235,7 +236,7 @@ def add_training_commands(sub: argparse._SubParsersAction) -> None:
                        help="train on a DeepRacer reward_function(params) file (default: the "
                             "built-in reward)")
     train.add_argument("--race-type", default=None,
-                       choices=["time_trial", "head_to_head", "object_avoidance", "head_to_bot"],
+                       choices=RACE_TYPES,
                        help="DeepRacer race type to train for (default: a head_to_head race "
                             "against racing_line without --config; time_trial with --opponents "
                             "none)")
