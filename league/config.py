@@ -12,13 +12,12 @@ moved to, and a removed knob says why it went.
 from __future__ import annotations
 
 import re
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from h2h_racing.training.imitation import ImitationConfig
-from h2h_racing.training.toml_types import build_tables, check_fields
+from h2h_racing.training.toml_types import build_tables, check_fields, read_toml
 
 ROLES = ("main", "main_exploiter", "league_exploiter")
 """Learner roles (AlphaStar's)."""
@@ -360,12 +359,7 @@ class LeagueConfig:
     @classmethod
     def from_toml(cls, path: str | Path) -> LeagueConfig:
         """Read a league config file."""
-        with open(path, "rb") as handle:
-            try:
-                data = tomllib.load(handle)
-            except tomllib.TOMLDecodeError as err:
-                raise ValueError(f"{path}: not valid TOML: {err}") from None
-        return cls.from_dict(data, source=str(path))
+        return cls.from_dict(read_toml(path), source=str(path))
 
     @property
     def rating_tracks(self) -> tuple[str, ...]:

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -20,7 +19,7 @@ from h2h_racing.config import EnvConfig, RaceRules, RewardConfig
 from h2h_racing.training.imitation import SCRIPTED_TEACHERS, ImitationConfig
 from h2h_racing.training.race_settings import RaceSettings
 from h2h_racing.training.teachers import load_teacher
-from h2h_racing.training.toml_types import build_tables
+from h2h_racing.training.toml_types import build_tables, read_toml
 from h2h_racing.training.tracks import ProceduralTracks
 from h2h_racing.training.vec_env import OBSERVATIONS, PoolOpponent, RacingVecEnv
 
@@ -275,12 +274,7 @@ class TrainConfig:
     def from_toml(cls, path: str | Path) -> TrainConfig:
         """Read a training config file (see ``from_dict``; e.g.
         ``policies/trained/ppo_generalist/imitate.toml``)."""
-        try:
-            with open(path, "rb") as handle:
-                data = tomllib.load(handle)
-        except tomllib.TOMLDecodeError as err:
-            raise ValueError(f"{path}: not valid TOML: {err}") from None
-        return cls.from_dict(data, source=str(path))
+        return cls.from_dict(read_toml(path), source=str(path))
 
     def opponents(self) -> list[str]:
         """The drivers named by ``opponent`` (empty without one)."""

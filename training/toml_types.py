@@ -11,8 +11,10 @@ strings is expected is taken as a list of that one name (``tracks = "oval"`` mea
 from __future__ import annotations
 
 import dataclasses
+import tomllib
 import types
 import typing
+from pathlib import Path
 from typing import Any, Literal
 
 _NAMES = {int: "an integer", float: "a number", str: "a string", bool: "true or false"}
@@ -176,3 +178,13 @@ def build_tables(cls: type, data: dict[str, Any], source: str, tables: dict[str,
             except (TypeError, ValueError) as err:
                 raise ValueError(f"{source}: {err}") from None
     return values
+
+
+def read_toml(path: str | Path) -> dict[str, Any]:
+    """The parsed contents of the TOML file at ``path``; invalid TOML raises ``ValueError``
+    naming the file."""
+    try:
+        with open(path, "rb") as handle:
+            return tomllib.load(handle)
+    except tomllib.TOMLDecodeError as err:
+        raise ValueError(f"{path}: not valid TOML: {err}") from None
