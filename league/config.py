@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from h2h_racing.config_checks import _is_int as _is_integer
+from h2h_racing.config_checks import _is_number
 from h2h_racing.training.imitation import ImitationConfig
 from h2h_racing.training.toml_types import build_tables, check_fields, read_toml
 
@@ -33,11 +35,7 @@ def _check_name(what: str, name: Any) -> None:
 
 
 def _is_int(value: Any, low: int = 1) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool) and value >= low
-
-
-def _is_number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
+    return _is_integer(value) and value >= low
 
 
 @dataclass(frozen=True, kw_only=True)
