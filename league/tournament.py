@@ -424,16 +424,16 @@ def run_tournament(config: TournamentConfig, store: LeagueStore, backend: Any | 
         ran = _run_jobs(jobs, store, backend, progress, len(done), total)
     else:
         for round_index in range(config.swiss_rounds):
-            races = store.races(context=config.context)
-            scores, met = _swiss_state(names, store.matches(context=config.context))
+            matches = store.matches(context=config.context)
+            scores, met = _swiss_state(names, matches)
             pairs = swiss_pairs(names, scores, met)
             prefix = f"{config.context}:round={round_index}"
             jobs = [make_job(track, pair, drivers, PAIR_ORDERS, range(config.races), prefix,
                              done, laps=config.laps, seed=config.seed, context=config.context)
                     for track in config.tracks for pair in pairs]
             jobs = [job for job in jobs if job is not None]
-            total = len(races) + sum(len(j.keys) for j in jobs)
-            ran += _run_jobs(jobs, store, backend, progress, len(races), total)
+            total = len(matches) + sum(len(j.keys) for j in jobs)
+            ran += _run_jobs(jobs, store, backend, progress, len(matches), total)
     # In canonical order with the fixed bootstrap seed (store.races, ratings.standings):
     # workers finish jobs in any order and a resume stores the rest later, and the table must
     # not depend on that (it equals `league table --context tournament:NAME`).
