@@ -130,7 +130,11 @@ def _cmd_league_train(args: argparse.Namespace) -> int:
         config = dataclasses.replace(config, minutes=args.minutes)
     if args.rounds is not None:
         config = dataclasses.replace(config, max_rounds=args.rounds)
-    out = Path(args.out or Path("runs") / "leagues" / config.name)
+    default_out = Path("runs") / "leagues" / config.name
+    if args.seed is not None:
+        config = dataclasses.replace(config, seed=args.seed)
+        default_out = default_out.with_name(f"{config.name}-seed{args.seed}")
+    out = Path(args.out or default_out)
     league = League(config, out, backend=_backend(args), progress=progress_mode(args))
     try:
         league.run()
@@ -308,6 +312,9 @@ def add_commands(sub: Any) -> None:
                        help="override the time budget (default: the config's minutes)")
     train.add_argument("--rounds", type=int, default=None,
                        help="override the round cap (default: the config's max_rounds)")
+    train.add_argument("--seed", type=int, default=None,
+                       help="override the training seed; the default folder becomes "
+                            "runs/leagues/NAME-seedSEED (default: the config's seed)")
     _add_backend_args(train, "local")
     add_progress_flag(train)
     train.set_defaults(func=_league_errors(_cmd_league_train))

@@ -285,20 +285,37 @@ class League:
         self._play(self._jobs("eval", round_index, pairs, track, cfg.races.eval_races))
 
     def record(self, learner: str, round_index: int) -> float | None:
-        """``learner``'s worst win rate against the anchors in the evaluation races of rounds
-        ``round_index - window + 1`` to ``round_index`` (``[main_restore] window``; each race
-        counted once, a tie as half a win); None if it did not race every anchor in them."""
-        from h2h_racing.league.pfsp import Payoff
+        """``learner``'s worst *clean win rate from behind* against the anchors in the
+        evaluation races of rounds ``round_index - window + 1`` to ``round_index``
+        (``[main_restore] window``): over the races it started behind an anchor, the share it
+        won without causing a crash. None if it did not start behind every anchor in them.
+
+        Races from the front are left out because the grid decides them (the front car wins
+        unless passed), and a win by contact does not count: issue 20's targets are wins from
+        behind with few crashes caused, and this is the record that picks the state."""
+        from h2h_racing.league.racecraft import grid_slots
 
         first = round_index - self.config.main_restore.window + 1
         context = self._context("eval")
-        races = [m.places for m in self.store.matches(context=context)
-                 if learner in m.places and first <= _round_of(m.key, context) <= round_index]
-        payoff = Payoff.from_races(races, decay=1.0)
         anchors = list(self.config.anchors)
-        if min(payoff.games(learner, a) for a in anchors) == 0:
+        races = dict.fromkeys(anchors, 0)
+        clean_wins = dict.fromkeys(anchors, 0)
+        for match in self.store.matches(context=context):
+            cars = {car.player: car for car in match.cars}
+            slots = grid_slots(match)
+            if (learner not in cars or len(cars) != 2 or slots is None
+                    or not first <= _round_of(match.key, context) <= round_index):
+                continue
+            anchor = next(p for p in cars if p != learner)
+            if anchor not in races or slots[learner] < slots[anchor]:
+                continue
+            races[anchor] += 1
+            mine = cars[learner]
+            clean_wins[anchor] += int(mine.position < cars[anchor].position
+                                      and mine.crashes == 0)
+        if min(races.values()) == 0:
             return None
-        return float(payoff.win_rates(learner, anchors).min())
+        return min(clean_wins[a] / races[a] for a in anchors)
 
     def _keep_best(self, learner: str, round_index: int) -> None:
         """Save ``learner``'s state when its record is the best so far; put the best state

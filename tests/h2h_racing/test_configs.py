@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import pytest
@@ -61,3 +62,33 @@ def test_the_cli_names_the_shipped_configs() -> None:
         main(["league", "train", "--config", "no_such_league"])
     with pytest.raises(SystemExit, match="shipped: ppo_generalist/finetune"):
         main(["train", "--config", "no_such_step", "--out", "unused"])
+
+
+def test_league_train_seed_overrides_the_config_and_names_its_own_folder(monkeypatch,
+                                                                         tmp_path) -> None:
+    pytest.importorskip("torch")
+    from h2h_racing.cli import main
+    from h2h_racing.league import selfplay
+
+    made = []
+
+    class Recorder:
+        def __init__(self, config, out, **kwargs):
+            made.append((config, out))
+
+        def run(self):
+            raise SystemExit("stopped before training")
+
+        def close(self):
+            pass
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(selfplay, "League", Recorder)
+    for argv in (["--config", "smoke", "--seed", "3"], ["--config", "smoke"]):
+        with pytest.raises(SystemExit, match="stopped before training"):
+            main(["league", "train", *argv, "--no-progress"])
+    (seeded, seeded_out), (plain, plain_out) = made
+    assert seeded.seed == 3 and str(seeded_out) == "runs/leagues/smoke-seed3"
+    # Without --seed: the config's seed and folder; the seed is the only difference.
+    assert plain.seed != 3 and str(plain_out) == "runs/leagues/smoke"
+    assert dataclasses.replace(seeded, seed=plain.seed) == plain

@@ -186,6 +186,20 @@ def test_max_std_reaches_the_learners(tmp_path):
         LearnerTraining(learning_rate=0)
 
 
+def test_the_ppo_update_size_reaches_the_learners():
+    config = LeagueConfig.from_toml(EXPERIMENTS_DIR / "racecraft.toml")
+    ppo = config.train_config(seed=0).ppo
+    assert (ppo.num_learning_epochs, ppo.num_mini_batches) == (2, 2)
+    algorithm = config.train_config(seed=0).rsl_rl_dict()["algorithm"]
+    assert (algorithm["num_learning_epochs"], algorithm["num_mini_batches"]) == (2, 2)
+    # The earlier runs keep rsl-rl's 4 x 4.
+    ppo = LeagueConfig.from_toml(EXPERIMENTS_DIR / "finishing.toml").train_config(seed=0).ppo
+    assert (ppo.num_learning_epochs, ppo.num_mini_batches) == (4, 4)
+    for name in ("num_learning_epochs", "num_mini_batches"):
+        with pytest.raises(ValueError, match=rf"\[training\] {name} must be an integer >= 1"):
+            LearnerTraining(**{name: 0})
+
+
 def test_imitation_term_reaches_the_learners():
     from h2h_racing.league.learners import make_env
     from h2h_racing.training.vec_env import PoolOpponent
@@ -270,20 +284,57 @@ def test_a_round_trains_on_its_track(tmp_path):
     assert stats["steps"] == 3 * config.training.num_envs * config.training.num_steps_per_env
 
 
-def _eval_race(round_index, n, main_place, anchor, anchor_place, player="main"):
+def _eval_race(round_index, n, main_place, anchor, anchor_place, player="main", behind=True,
+               crashes=0):
+    """An evaluation race of ``player`` against ``anchor``; ``behind``: ``player`` started on
+    the slot behind (its key's ``slots=`` digits say the same)."""
     from h2h_racing.league.store import CarResult, MatchRecord
 
     context = "league:smoke:eval"
-    cars = (CarResult(seat=0, player=player, position=main_place, finished=True, laps=1),
-            CarResult(seat=1, player=anchor, position=anchor_place, finished=True, laps=1))
-    return MatchRecord(key=f"{context}:round={round_index}:oval:{player},{anchor}:n={n}",
+    mine, theirs = (1, 0) if behind else (0, 1)
+    cars = (CarResult(seat=0, player=player, position=main_place, finished=True, laps=1,
+                      crashes=crashes, grid_slot=mine),
+            CarResult(seat=1, player=anchor, position=anchor_place, finished=True, laps=1,
+                      grid_slot=theirs))
+    return MatchRecord(key=f"{context}:round={round_index}:oval:{player},{anchor}:n={n}"
+                           f":slots={mine}{theirs}",
                        track="oval", race_type="head_to_head", laps=1, seed=n, cars=cars,
                        context=context)
 
 
-def test_main_state_is_kept_at_its_best_and_put_back_when_its_record_falls(tmp_path):
+def test_the_record_is_the_worst_clean_win_rate_from_behind(tmp_path):
     config = dataclasses.replace(LeagueConfig.from_toml(LEAGUE_DIR / "smoke.toml"),
                                  main_restore=MainRestore(margin=0.2, window=2))
+    league = League(config, tmp_path, out=io.StringIO())
+    anchors = list(config.anchors)
+    assert len(anchors) >= 2
+    first, second = anchors[0], anchors[1]
+    rest = anchors[2:]
+    try:
+        results = [
+            (first, 1, 2, True, 0),    # won from behind, clean: counts 1 of 1
+            (first, 1, 2, True, 1),    # won from behind by causing a crash: 0 of 1
+            (first, 2, 1, True, 0),    # lost from behind: 0 of 1
+            (first, 1, 2, False, 0),   # won from the front: not in the record
+            (second, 1, 2, True, 0),   # 1 of 1
+            (second, 2, 1, False, 0),  # lost from the front: not in the record
+        ] + [(a, 1, 2, True, 0) for a in rest]
+        for n, (anchor, mine, theirs, behind, crashes) in enumerate(results):
+            league.store.record_match(_eval_race(1, n, mine, anchor, theirs, behind=behind,
+                                                 crashes=crashes))
+        # first: 1 clean win of 3 races from behind; second: 1 of 1; record = min = 1/3.
+        assert league.record("main", 1) == pytest.approx(1 / 3)
+        # Round 3's window (rounds 2-3) holds no race from behind: no record.
+        league.store.record_match(_eval_race(3, 0, 1, first, 2, behind=False))
+        assert league.record("main", 3) is None
+    finally:
+        league.close()
+
+
+def test_main_state_is_kept_at_its_best_and_put_back_when_its_record_falls(tmp_path):
+    config = dataclasses.replace(LeagueConfig.from_toml(LEAGUE_DIR / "smoke.toml"),
+                                 main_restore=MainRestore(margin=0.2, window=2),
+                                 anchors=("racing_line", "pure_pursuit"))
     out = io.StringIO()
     league = League(config, tmp_path, out=out)
     folder = tmp_path / "learners" / "main"
@@ -294,9 +345,9 @@ def test_main_state_is_kept_at_its_best_and_put_back_when_its_record_falls(tmp_p
             (folder / file).write_text(f"{tag} {file}")
 
     def races(round_index, results):
-        for n, (anchor, main_place, anchor_place) in enumerate(results):
+        for n, (anchor, main_place, anchor_place, *crashes) in enumerate(results):
             league.store.record_match(_eval_race(round_index, n, main_place, anchor,
-                                                 anchor_place))
+                                                 anchor_place, crashes=sum(crashes)))
 
     try:
         state("A")
@@ -306,17 +357,17 @@ def test_main_state_is_kept_at_its_best_and_put_back_when_its_record_falls(tmp_p
         league._keep_best("main", 0)  # a window of 2 rounds needs round 1
         assert "main.best_record" not in meta() and not (folder / "best").exists()
         races(1, [("racing_line", 1, 2), ("racing_line", 1, 2), ("pure_pursuit", 1, 2),
-                  ("pure_pursuit", 1, 1)])
-        # Rounds 0-1: racing_line 3 wins of 3 = 1; pure_pursuit 2 wins + a tie of 3 =
-        # 2.5 / 3 = 0.833 -> record 0.833, the first: saved.
-        assert league.record("main", 1) == pytest.approx(2.5 / 3)
+                  ("pure_pursuit", 1, 2, 1)])
+        # Rounds 0-1, every race from behind: racing_line 3 clean wins of 3 = 1;
+        # pure_pursuit 2 of 3 (one win caused a crash) -> record 2/3, the first: saved.
+        assert league.record("main", 1) == pytest.approx(2 / 3)
         league._keep_best("main", 1)
-        assert float(meta()["main.best_record"]) == pytest.approx(2.5 / 3)
+        assert float(meta()["main.best_record"]) == pytest.approx(2 / 3)
         assert (folder / "best" / "latest.pt").read_text() == "A latest.pt"
         state("B")
         races(2, [("racing_line", 2, 1), ("racing_line", 2, 1), ("pure_pursuit", 2, 1),
                   ("pure_pursuit", 2, 1)])
-        # Rounds 1-2: racing_line 2 of 4 = 0.5; pure_pursuit 1.5 of 4 = 0.375 < 0.833 - 0.2:
+        # Rounds 1-2: racing_line 2 of 4 = 0.5; pure_pursuit 1 of 4 = 0.25 < 2/3 - 0.2:
         # state A is put back, the learner is rebuilt from it, the next record is judged on
         # rounds 3-4.
         league._keep_best("main", 2)
@@ -330,15 +381,15 @@ def test_main_state_is_kept_at_its_best_and_put_back_when_its_record_falls(tmp_p
         league._keep_best("main", 3)  # rounds 2-3 mix the old state's races: not judged
         assert (folder / "latest.pt").read_text() == "C latest.pt"
         races(4, [("racing_line", 1, 2), ("racing_line", 1, 2), ("pure_pursuit", 1, 2),
-                  ("pure_pursuit", 1, 2), ("pure_pursuit", 1, 2)])
-        # Rounds 3-4: racing_line 2 of 3, pure_pursuit 3 of 4 -> 0.667: between the best
-        # and the best minus the margin, nothing happens.
+                  ("pure_pursuit", 1, 2), ("pure_pursuit", 2, 1)])
+        # Rounds 3-4: racing_line 2 of 3, pure_pursuit 2 of 4 = 0.5: between the best (0.667)
+        # and the best minus the margin (0.467), nothing happens.
         league._keep_best("main", 4)
         assert (folder / "best" / "latest.pt").read_text() == "A latest.pt"
         assert meta()["main.restores"] == "1"
         races(5, [("racing_line", 1, 2), ("racing_line", 1, 2), ("racing_line", 1, 2),
                   ("pure_pursuit", 1, 2)])
-        # Rounds 4-5: racing_line 5 of 5, pure_pursuit 4 of 4 -> 1 > 0.833: state C is best.
+        # Rounds 4-5: racing_line 5 of 5, pure_pursuit 3 of 4 = 0.75 > 2/3: state C is best.
         league._keep_best("main", 5)
         assert (folder / "best" / "runner.pt").read_text() == "C runner.pt"
         assert meta()["main.best_round"] == "5"
