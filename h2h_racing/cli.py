@@ -10,7 +10,8 @@
                      [--init P] [--max-std S] [--teacher P] [--eval-every 50]
                      [--race-type object_avoidance [--boxes 6] | head_to_bot [--bots 3]]
     h2h-racing evaluate --policy runs/NAME/policy.pt [--track T] [--episodes 20]
-                        [--against DRIVERS [--races 20] [--laps 3]]
+                        [--against DRIVERS | --field DRIVERS] [--races 20] [--laps 3]
+                        [--start both|behind|front] [--gap M] [--rolling M/S]
     h2h-racing export POLICY [--format onnx,torchscript] [--out DIR]
     h2h-racing tracks list
     h2h-racing tracks show NAME [--out NAME.png]

@@ -125,6 +125,12 @@ def _reward_terms(text: str) -> dict[str, float]:
 def _cmd_evaluate(args: argparse.Namespace) -> int:
     from h2h_racing.training.evaluate import Evaluation, evaluate
 
+    if args.against and args.field:
+        print("error: give --against (two-car races, one opponent at a time) or --field (all "
+              "the opponents on the grid at once), not both", file=sys.stderr)
+        return 2
+    if args.field:
+        return _evaluate_field(args)
     if args.against:
         return _evaluate_head_to_head(args)
     print(f"{args.track}: {args.episodes} one-lap attempts from start points spread round the "
@@ -152,6 +158,7 @@ def _evaluate_head_to_head(args: argparse.Namespace) -> int:
     grid = {"both": "every start point in both seat orders", "behind": "the policy starts "
             "behind", "front": "the policy starts in front"}[args.start]
     gap = f", {args.gap:g} m grid gap" if args.gap is not None else ""
+    gap += f", rolling start at {args.rolling:g} m/s" if args.rolling else ""
     print(f"{args.policy}: {args.races} two-car races of {args.laps} laps per track and opponent "
           f"(race rules: 5 s penalties), {grid}{gap}")
     print(head_to_head_header())
@@ -167,7 +174,8 @@ def _evaluate_head_to_head(args: argparse.Namespace) -> int:
         try:
             result = head_to_head(policy, make_driver(opponent, seed=args.seed + 1), track,
                                   races=args.races, laps=args.laps, seed=args.seed,
-                                  start=args.start, gap=args.gap, progress=show)
+                                  start=args.start, gap=args.gap, rolling=args.rolling,
+                                  progress=show)
         except ValueError as err:
             bar.close()
             print(f"error: {err}", file=sys.stderr)
@@ -183,6 +191,54 @@ def _evaluate_head_to_head(args: argparse.Namespace) -> int:
     print("won: the policy's wins (of all races, from the slot behind, from the front slot); "
           "per race: the policy's / the opponent's; a defence: the other car was under 1 m "
           "behind for 2 s, faster at some moment, and dropped back without passing")
+    return 0
+
+
+def _evaluate_field(args: argparse.Namespace) -> int:
+    from h2h_racing.policies import make_driver
+    from h2h_racing.track_io import list_tracks
+    from h2h_racing.training.evaluate_field import (combine_fields, field_header, field_race,
+                                                  field_rows)
+
+    if args.start != "both":
+        print("error: --start applies to --against; --field rotates the policy over every "
+              "grid slot", file=sys.stderr)
+        return 2
+    names = [name for name in args.field.split(",") if name]
+    tracks = list_tracks() if args.track == "all" else args.track.split(",")
+    gap = f", {args.gap:g} m grid gap" if args.gap is not None else ""
+    gap += f", rolling start at {args.rolling:g} m/s" if args.rolling else ""
+    print(f"{args.policy} with {', '.join(names)}: {args.races} {len(names) + 1}-car races of "
+          f"{args.laps} laps per track (race rules: 5 s penalties), every start point in "
+          f"every rotation of the grid{gap}")
+    print(field_header())
+    results = []
+    bar = Progress("evaluate", mode=progress_mode(args))
+    for k, track in enumerate(tracks):
+        def show(share: float, finished: int, k: int = k, track: str = track) -> None:
+            bar.update((k + share) / len(tracks), f"{finished}/{args.races} races on {track} "
+                                                  f"({k + 1}/{len(tracks)})")
+
+        try:
+            opponents = [make_driver(name, seed=args.seed + 1 + i)
+                         for i, name in enumerate(names)]
+            result = field_race(make_driver(args.policy, seed=args.seed), opponents, track,
+                                races=args.races, laps=args.laps, seed=args.seed,
+                                gap=args.gap, rolling=args.rolling, progress=show)
+        except ValueError as err:
+            bar.close()
+            print(f"error: {err}", file=sys.stderr)
+            return 2
+        results.append(result)
+        bar.clear()
+        print("\n".join(field_rows(result)), flush=True)
+    bar.close()
+    total = combine_fields(results)
+    print("\n".join(field_rows(total, slots=True)))
+    wins = ", ".join(f"{name} {won}" for name, won in zip(total.drivers, total.wins))
+    print(f"races won: {wins}")
+    print("slot: the policy's grid slot (1 is the front); mean place, won, per race and "
+          "finished are the policy's")
     return 0
 
 
@@ -288,15 +344,26 @@ def add_training_commands(sub: argparse._SubParsersAction) -> None:
                                "each (2-car races; --track may be a comma list or 'all')")
     evaluate.add_argument("--races", type=int, default=20,
                           help="races per track and opponent with --against (even with --start "
-                               "both: both seat orders of every start)")
+                               "both: both seat orders of every start), per track with --field")
     evaluate.add_argument("--start", default="both", choices=["both", "behind", "front"],
                           help="the policy's grid slot with --against: both (alternating on "
                                "the same start points), behind (every win is a pass) or front "
                                "(default: both)")
     evaluate.add_argument("--gap", type=float, default=None, metavar="METRES",
                           help="distance the car behind starts behind the other [m of track] "
-                               "with --against, a standing start (default: the grid's 0.75)")
-    evaluate.add_argument("--laps", type=int, default=3, help="laps per race with --against")
+                               "with --against (between consecutive grid slots with --field); "
+                               "see --rolling (default: the grid's 0.75)")
+    evaluate.add_argument("--rolling", type=float, default=0.0, metavar="M/S",
+                          help="start speed of every car with --against or --field [m/s]: a "
+                               "rolling start, the cars already moving along the track, --gap "
+                               "apart; at most the car's max speed; 0 is a standing start")
+    evaluate.add_argument("--field", default=None, metavar="DRIVERS",
+                          help="comma-separated opponents raced with the policy all at once "
+                               "(3-car races and more), every start point in every rotation of "
+                               "the grid (--races a multiple of the cars); results by the "
+                               "policy's grid slot")
+    evaluate.add_argument("--laps", type=int, default=3,
+                          help="laps per race with --against or --field")
     add_progress_flag(evaluate)
     evaluate.set_defaults(func=_cmd_evaluate)
 

@@ -39,7 +39,7 @@ from h2h_racing import bots, race, spawn
 from h2h_racing.config import EnvConfig
 from h2h_racing.core_events import StepEvents
 from h2h_racing.core_penalties import CorePenalties
-from h2h_racing.core_spawn import CoreSpawn
+from h2h_racing.core_spawn import CoreSpawn, check_rolling
 from h2h_racing.core_state import CoreState
 from h2h_racing.dynamics import SingleTrackModel
 from h2h_racing.physics import PhysicsWorld
@@ -177,7 +177,8 @@ class RaceCore(CoreState, CoreSpawn, CorePenalties):
         self.rng = np.random.default_rng(seed)
 
     def reset(self, seed: int | None = None, slots: IntArray | None = None,
-              start: FloatArray | None = None, reverse: bool | None = None) -> None:
+              start: FloatArray | None = None, reverse: bool | None = None,
+              rolling: float = 0.0) -> None:
         """Reset every env copy and build a new pymunk Space.
 
         Args:
@@ -197,7 +198,12 @@ class RaceCore(CoreState, CoreSpawn, CorePenalties):
                 follows ``alternate_direction`` (reversed on odd episodes) or else drives its
                 own way. Arc positions, lanes and progress are then measured in the driving
                 direction (``track`` is ``forward_track.reversed()``, same start line).
+            rolling: Start speed of every car [m/s], in [0, ``car.max_speed``]: 0 is a standing
+                start; above 0 a rolling start, each car moving straight along its heading
+                with that speed commanded (``core_spawn.check_rolling`` checks it).
         """
+        # Checked before anything is rebuilt, so a bad speed leaves the core as it was.
+        check_rolling(rolling, self.config.car.max_speed)
         if seed is not None:
             self.seed(seed)
             self.episodes[:] = 0
@@ -211,10 +217,10 @@ class RaceCore(CoreState, CoreSpawn, CorePenalties):
             friction=car.body_friction, elasticity=car.body_elasticity,
             num_bots=self.num_envs * self.num_bots)
         self._allocate()
-        self._spawn(np.ones(self.num_envs, dtype=bool), slots, start)
+        self._spawn(np.ones(self.num_envs, dtype=bool), slots, start, rolling)
 
     def reset_envs(self, mask: BoolArray, slots: IntArray | None = None,
-                   start: FloatArray | None = None) -> None:
+                   start: FloatArray | None = None, rolling: float = 0.0) -> None:
         """Reset the env copies where ``mask`` is True, keeping the others running.
 
         Args:
@@ -222,6 +228,7 @@ class RaceCore(CoreState, CoreSpawn, CorePenalties):
             slots: Grid slots, shape (N,) or (sum(mask), N); None draws them.
             start: Arc position of slot 0 in each reset copy, shape (sum(mask),) [m] (see
                 ``reset``).
+            rolling: Start speed of the reset copies' cars [m/s] (see ``reset``).
         """
         if self.world is None:
             raise RuntimeError("call reset() before reset_envs()")
@@ -236,7 +243,7 @@ class RaceCore(CoreState, CoreSpawn, CorePenalties):
                     "(reset_envs with an all-True mask, or reset()), or use round_robin_starts "
                     "without alternate_direction")
             self._set_direction(self._alternated())
-        self._spawn(mask, slots, start)
+        self._spawn(mask, slots, start, rolling)
 
 
     def _move_bots(self) -> None:

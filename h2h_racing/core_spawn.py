@@ -17,12 +17,27 @@ BoolArray = npt.NDArray[np.bool_]
 IntArray = npt.NDArray[np.int64]
 
 
+def check_rolling(rolling: object, max_speed: float) -> float:
+    """``rolling`` as a float: a start speed in [0, ``max_speed``] m/s.
+
+    Raises:
+        ValueError: For anything else (a bool, a non-number, NaN, a negative speed or one
+            above the car's top speed).
+    """
+    if (isinstance(rolling, bool) or not isinstance(rolling, (int, float, np.floating))
+            or not 0.0 <= float(rolling) <= max_speed):
+        raise ValueError(f"rolling must be a start speed in [0, {max_speed:g}] m/s (0 is a "
+                         f"standing start; at most the car's max_speed), got {rolling!r}")
+    return float(rolling)
+
+
 class CoreSpawn:
     """Reset-time placement of ``RaceCore``'s cars, obstacles and bots (a mixin)."""
 
     def _spawn(self, mask: BoolArray, slots: IntArray | None,
-               start: FloatArray | None = None) -> None:
+               start: FloatArray | None = None, rolling: float = 0.0) -> None:
         cfg, track = self.config, self.track
+        rolling = check_rolling(rolling, cfg.car.max_speed)
         m = int(mask.sum())
         n = self.num_cars
         if slots is None:
@@ -47,12 +62,14 @@ class CoreSpawn:
         pos, yaw = spawn.poses_on_track(track, s, d)
         self.position[mask] = pos
         self.yaw[mask] = yaw
-        self.velocity[mask] = 0.0
+        # A rolling start: every car moving straight along its yaw (the track's heading at its
+        # slot), its speed controller already asking for that speed so it does not brake.
+        self.velocity[mask] = rolling * np.stack([np.cos(yaw), np.sin(yaw)], axis=-1)
         self.yaw_rate[mask] = 0.0
         self.steer[mask] = 0.0
-        self.speed[mask] = 0.0
+        self.speed[mask] = rolling
         self.steer_command[mask] = 0.0
-        self.speed_command[mask] = 0.0
+        self.speed_command[mask] = rolling
         self.s[mask] = s
         self.d[mask] = d
         self.distance[mask] = car_offset

@@ -126,6 +126,8 @@ class HeadToHead:
     """A's grid slot (``START_CHOICES``)."""
     gap: float = 0.75
     """Distance between the grid slots [m of track]."""
+    rolling: float = 0.0
+    """Start speed of both cars [m/s]: 0 for a standing start, else a rolling start."""
 
     def per_race(self, counts: tuple[int, int]) -> float:
         """A's share of ``counts`` (e.g. ``overtakes``) per race."""
@@ -136,7 +138,9 @@ class HeadToHead:
         a, b = self.drivers
         grid = {"both": f"{self.races_behind} from behind, {self.races_front} from the front",
                 "behind": "all from behind", "front": "all from the front"}[self.start]
-        return (f"{self.track}, {self.races} races ({grid}, grid gap {self.gap:g} m): "
+        launch = (f"rolling start at {self.rolling:g} m/s" if self.rolling
+                  else "standing start")
+        return (f"{self.track}, {self.races} races ({grid}, grid gap {self.gap:g} m, {launch}): "
                 f"{a} won {self.wins[0]}, {b} won {self.wins[1]}; {a} won "
                 f"{self.wins_behind}/{self.races_behind} from behind and "
                 f"{self.wins_front}/{self.races_front} from the front; overtakes "
@@ -165,6 +169,7 @@ def grid_slots(races: int, start: str) -> np.ndarray:
 
 def head_to_head(driver_a: Any, driver_b: Any, track: str, races: int = 20, laps: int = 3,
                  seed: int = 0, start: str = "both", gap: float | None = None,
+                 rolling: float = 0.0,
                  progress: Callable[[float, int], None] | None = None) -> HeadToHead:
     """Race two drivers against each other ``races`` times, all at once as env copies.
 
@@ -175,8 +180,11 @@ def head_to_head(driver_a: Any, driver_b: Any, track: str, races: int = 20, laps
     (time penalties, not retirement) and ``laps`` laps counted from the front slot.
 
     Args:
-        gap: Distance of the slot behind [m of track] (a standing start); None keeps the
-            grid's 0.75 m (DeepRacer's). At most a quarter of the lap.
+        gap: Distance of the slot behind [m of track]; None keeps the grid's 0.75 m
+            (DeepRacer's). At most a quarter of the lap.
+        rolling: Start speed of both cars [m/s]: 0 a standing start; above 0 a rolling start,
+            both cars already moving along the track at that speed, ``gap`` apart
+            (``RaceCore.reset(rolling=...)``; at most the car's ``max_speed``).
         progress: Called after every step with the share of the races done (the mean over
             races of the larger of the last running car's share of the laps and the share of
             the time limit used) and the number of races finished.
@@ -198,7 +206,7 @@ def head_to_head(driver_a: Any, driver_b: Any, track: str, races: int = 20, laps
     rng = np.random.default_rng(seed)
     starts = (np.repeat(rng.uniform(0.0, loaded.length, races // 2), 2) if start == "both"
               else rng.uniform(0.0, loaded.length, races))
-    core.reset(seed=seed, slots=slots, start=starts)
+    core.reset(seed=seed, slots=slots, start=starts, rolling=rolling)
     for driver in drivers:
         driver.reset(core)
     while not core.done.all():
@@ -219,7 +227,7 @@ def head_to_head(driver_a: Any, driver_b: Any, track: str, races: int = 20, laps
         finished=pair(core.finished), races_behind=int(behind.sum()),
         wins_behind=int(winner[behind, 0].sum()), races_front=int((~behind).sum()),
         wins_front=int(winner[~behind, 0].sum()), defences=pair(core.defences), start=start,
-        gap=float(spacing))
+        gap=float(spacing), rolling=float(rolling))
 
 
 def _share_done(core: RaceCore, laps: int) -> float:
@@ -244,13 +252,15 @@ def combine(results: list[HeadToHead], track: str = "all") -> HeadToHead:
 
     starts = {r.start for r in results}
     gaps = {r.gap for r in results}
+    speeds = {r.rolling for r in results}
     return HeadToHead(
         drivers=results[0].drivers, track=track, races=total("races"), wins=total("wins"),
         overtakes=total("overtakes"), crashes=total("crashes"), finished=total("finished"),
         races_behind=total("races_behind"), wins_behind=total("wins_behind"),
         races_front=total("races_front"), wins_front=total("wins_front"),
         defences=total("defences"), start=starts.pop() if len(starts) == 1 else "both",
-        gap=gaps.pop() if len(gaps) == 1 else float("nan"))
+        gap=gaps.pop() if len(gaps) == 1 else float("nan"),
+        rolling=speeds.pop() if len(speeds) == 1 else float("nan"))
 
 
 def head_to_head_header() -> str:
