@@ -30,6 +30,13 @@ class RaceSettings:
     race_type: str | None = None
     """``"time_trial"``, ``"head_to_head"``, ``"object_avoidance"`` or ``"head_to_bot"``;
     None means ``time_trial`` for one car per copy and ``head_to_head`` for more."""
+    race_types: tuple[str, ...] = ()
+    """Race types a procedural run (``track = "procedural"``) takes in turn, one per random
+    track (``[procedural] every`` iterations each), instead of ``race_type``: e.g.
+    ``["object_avoidance", "head_to_bot"]`` trains one learner for both, each with its own
+    default boxes and bots (6 boxes and no bot, then no box and 3 bots) unless ``boxes`` or
+    ``bots`` is given. Their rules must match (every race type but ``time_trial``: 3 laps,
+    5 s penalties), since only the boxes and bots change between tracks."""
     boxes: int | None = None
     """Boxes on the lanes per env copy; None means the race type's default (6 for
     ``object_avoidance``, DeepRacer's ``NUMBER_OF_OBSTACLES``, else 0). A count other than
@@ -56,6 +63,13 @@ class RaceSettings:
         owner = "[race]"
         _check(self.race_type is None or self.race_type in RACE_TYPES, owner, "race_type",
                self.race_type, f"one of {RACE_TYPES} (or left out)")
+        _check(isinstance(self.race_types, tuple)
+               and all(t in RACE_TYPES and t != "time_trial" for t in self.race_types),
+               owner, "race_types", self.race_types,
+               f"a list of race types other than 'time_trial' (same rules), from {RACE_TYPES}")
+        _check(not (self.race_types and self.race_type is not None), owner, "race_types",
+               self.race_types, f"left out when race_type is given (got race_type "
+               f"{self.race_type!r}): give one or the other")
         _check(self.boxes is None or (_is_int(self.boxes) and 0 <= self.boxes <= MAX_BOXES),
                owner, "boxes", self.boxes,
                f"an int in [0, {MAX_BOXES}] (or left out for the race type's default)")
@@ -70,7 +84,10 @@ class RaceSettings:
                    "true or false")
 
     def resolved_type(self, num_cars: int) -> str:
-        """The race type in force for ``num_cars`` cars per copy."""
+        """The race type in force for ``num_cars`` cars per copy (the first of
+        ``race_types`` when they take turns)."""
+        if self.race_types:
+            return self.race_types[0]
         if self.race_type is not None:
             return self.race_type
         return "time_trial" if num_cars == 1 else "head_to_head"

@@ -61,6 +61,7 @@ and metrics logs of a few copies (``h2h_racing.deepracer.logs``).
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from typing import Any, Callable, Literal
 
@@ -132,6 +133,9 @@ class RacingVecEnv(VecEnv):
         simtrace_envs: How many copies to log (1-10; logging costs a few us per row).
         expert: A scripted driver (name, e.g. ``"racing_line"``, or object) whose actions for
             the learner cars fill the ``expert`` observation group; None adds no group.
+        race_types: Race types that take turns at each ``set_track`` (a procedural run's new
+            track): the k-th call races ``race_types[k % len]`` with that race type's default
+            boxes and bots; empty keeps ``config.race_type``.
 
     Raises:
         ValueError: For bad arguments, and for ``config.alternate_direction``: the copies
@@ -146,7 +150,7 @@ class RacingVecEnv(VecEnv):
                  device: str = "cpu", track: Track | None = None,
                  random_starts: bool = True, reward_function: str | None = None,
                  simtrace: str | None = None, simtrace_envs: int = 2,
-                 expert: str | Any | None = None) -> None:
+                 expert: str | Any | None = None, race_types: tuple[str, ...] = ()) -> None:
         n = config.num_cars
         learners = n if learners is None else learners
         if not isinstance(learners, int) or not 1 <= learners <= n:
@@ -165,6 +169,8 @@ class RacingVecEnv(VecEnv):
                 "PettingZoo env (h2h_racing.parallel_env(alternate_direction=True)), which "
                 "alternates per episode")
         self.config = config
+        self.race_types = tuple(race_types)
+        self._tracks_set = 0
         self.cfg = config.to_dict()
         self.track = track if track is not None else load_track(config.track)
         self.core = RaceCore(config, self.track, num_envs=num_envs)
@@ -308,6 +314,7 @@ class RacingVecEnv(VecEnv):
         Call it between ``learn()`` calls (rsl-rl reads ``get_observations()`` at the start of
         each); training on a new random track every few iterations teaches policies to drive
         tracks they have never seen.
+        With ``race_types`` each call also moves on to the next race type.
 
         Raises:
             ValueError: With a DeepRacer reward function or simtrace logs, which are bound to
@@ -316,6 +323,13 @@ class RacingVecEnv(VecEnv):
         if self._deepracer or self.simtrace is not None:
             raise ValueError("a DeepRacer reward function or simtrace logs need one track; "
                              "train on a fixed track (not 'procedural') to use them")
+        if self.race_types:
+            # Only the race type (its boxes and bots) changes: the rules of every race type
+            # but time_trial are the same (RaceSettings.race_types).
+            kind = self.race_types[self._tracks_set % len(self.race_types)]
+            self.config = dataclasses.replace(self.config, race_type=kind)
+            self.cfg = self.config.to_dict()
+        self._tracks_set += 1
         rng = self.core.rng
         max_cycles = self.core.max_cycles
         self.track = track

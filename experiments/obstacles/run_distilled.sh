@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# obstacle_generalist candidate (issue 22): seeds 0, 1, 2 of distilled.toml one after the
+# other (MINUTES of training each, 8 by default), each followed by its figures on the 7 shipped
+# tracks (evaluate_races.py: object-avoidance and head-to-bot races, seeds 1-3, and the
+# time-trial lap against ppo_generalist), so that a cut-short series still has its first seeds.
+#   experiments/obstacles/run_distilled.sh
+# Writes runs/obstacles/: init_generalist.pt (prepare_init.py), distilled-seedN/ (the run,
+# policy.pt), distilled-seedN.log, distilled-seedN-figures.{txt,json}, and
+# distilled-summary.txt (every seed's totals).
+set -u
+cd "$(dirname "$0")/../.."
+. /work/main/.venv/bin/activate
+export GIT_PYTHON_REFRESH=quiet  # rsl-rl imports GitPython
+MINUTES="${MINUTES:-8}"
+SEEDS="${SEEDS:-0 1 2}"
+OUT=runs/obstacles
+mkdir -p "$OUT"
+python experiments/obstacles/prepare_init.py "$OUT/init_generalist.pt" || exit 1
+for s in $SEEDS; do
+  run="$OUT/distilled-seed$s"
+  echo "$(date -u +%H:%M:%S) training seed $s -> $run"
+  # --minutes decides the length (--iterations only caps it).
+  h2h-racing train --config experiments/obstacles/distilled.toml \
+    --init "$OUT/init_generalist.pt" --minutes "$MINUTES" --iterations 100000 --seed "$s" \
+    --no-onnx --no-progress --out "$run" > "$run.log" 2>&1 || { echo "seed $s failed: $run.log"; continue; }
+  echo "$(date -u +%H:%M:%S) evaluating seed $s"
+  python experiments/obstacles/evaluate_races.py "$run/policy.pt" --json "$run-figures.json" \
+    > "$run-figures.txt" 2>&1 || echo "seed $s evaluation failed: $run-figures.txt"
+done
+for s in $SEEDS; do
+  echo "== seed $s"
+  grep -h "^total" "$OUT/distilled-seed$s-figures.txt" 2>/dev/null
+done > "$OUT/distilled-summary.txt"
+cat "$OUT/distilled-summary.txt"
+echo "$(date -u +%H:%M:%S) done"
