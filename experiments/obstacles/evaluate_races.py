@@ -4,7 +4,9 @@
 
 POLICY is a scripted driver (``racing_line``, ``pure_pursuit``; constructor options as
 ``racing_line:grip_factor=0.5,margin=0.2``), a shipped policy or a ``policy.pt``. For each
-policy and catalogue track:
+policy, on each catalogue track and each real DeepRacer route found in ``--routes`` (by
+default ``../shared/data/deepracer_tracks/*.npy`` beside the clone, README's Tests section;
+``--routes none`` skips them):
 
 - ``object_avoidance``: 3-lap races, one car, DeepRacer's default 6 boxes at randomised places
   (seeds 1-3; race rules: a crash costs a penalty and a reset);
@@ -37,6 +39,7 @@ from h2h_racing.policies import make_driver
 from h2h_racing.track_io import list_tracks
 
 SEEDS = (1, 2, 3)
+ROUTES = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "deepracer_tracks"
 RACE_TYPES = ("object_avoidance", "head_to_bot")
 LAPS = 3
 PASS_WINDOW = 2.0
@@ -125,6 +128,10 @@ def best_lap(spec: str, track: str) -> float:
     return float(row["best_lap"])
 
 
+def _label(track: str) -> str:
+    return Path(track).stem if track.endswith(".npy") else track
+
+
 def _per_lap(value: float | None) -> str:
     return "-" if value is None else f"{value:.2f}"
 
@@ -143,7 +150,8 @@ def evaluate(spec: str, tracks: list[str], reference: str | None,
             out[track][race_type] = r
             passes = (f"{r['net_passes']} ({r['passes']}-{r['passed_back']})"
                       if race_type == "head_to_bot" else "")
-            print(f"{track:15s} {race_type:17s} {r['finished']}/{r['races']:<3} {r['laps']:>4} "
+            print(f"{_label(track):15s} {race_type:17s} {r['finished']}/{r['races']:<3} "
+                  f"{r['laps']:>4} "
                   f"{_per_lap(r['crashes_per_lap']):>9} {_per_lap(r['resets_per_lap']):>9} "
                   f"{passes:>10} {'yes' if r['ok'] else 'no':>3}", flush=True)
         lap = best_lap(spec, track)
@@ -154,7 +162,7 @@ def evaluate(spec: str, tracks: list[str], reference: str | None,
                                     "ok": ratio is not None
                                     and ratio <= TARGETS["lap_time_ratio"]}
         shown = "-" if ratio is None else f"{ratio:.3f}"
-        print(f"{track:15s} {'time_trial':17s} best lap {lap:.2f} s, {reference} "
+        print(f"{_label(track):15s} {'time_trial':17s} best lap {lap:.2f} s, {reference} "
               f"{ref if ref is None else round(ref, 2)} s, ratio {shown} "
               f"{'yes' if out[track]['time_trial']['ok'] else 'no'}", flush=True)
     for race_type in RACE_TYPES:
@@ -174,11 +182,15 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("policies", nargs="+", help="drivers, shipped policies or policy.pt")
     parser.add_argument("--tracks", nargs="+", default=None, help="default: the catalogue")
+    parser.add_argument("--routes", default=str(ROUTES),
+                        help="folder of DeepRacer route files (.npy) raced too, or 'none'")
     parser.add_argument("--reference", default="ppo_generalist",
                         help="policy whose time-trial best lap the ratios divide by")
     parser.add_argument("--json", type=Path, default=None, help="write every figure here")
     args = parser.parse_args(argv)
     tracks = args.tracks or list_tracks()
+    if args.routes != "none" and Path(args.routes).is_dir():
+        tracks += [str(path) for path in sorted(Path(args.routes).glob("*.npy"))]
     reference_laps = {t: best_lap(args.reference, t) for t in tracks} if args.reference else {}
     figures = {spec: evaluate(spec, tracks, args.reference, reference_laps)
                for spec in args.policies}
