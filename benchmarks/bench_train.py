@@ -25,10 +25,20 @@ hidden (128, 128), one torch thread); the others change one or two of: mini-batc
 critic (rsl-rl's ``alg.compile``). Fewer epochs or mini-batches are fewer gradient steps per
 sample: whether a run still learns as well is a training question, not answered here.
 
-With ``--camera`` also camera rows: PPO with the camera actor (``observations="camera"``) and
-distillation of the racing line into a camera-only student (``[imitation] teacher = "racing_line"``), each at
-today's 64 x 48 image and CNN and at a 32 x 24 image with a narrower CNN, with
-``--camera-envs`` copies.
+With ``--camera`` also camera rows (issue 21), each fast row against its own today's row:
+
+- PPO with the camera actor (``observations="camera"``: camera and state vector, and a CNN
+  critic): today's (``TrainConfig``'s 64 x 48 image and (16, 32, 16) CNN, ``--camera-envs``
+  copies), then with the camera recipe's image, CNN, channels-last layout and copies
+  (``experiments/camera/finetune.toml``);
+- distillation into a camera-only student from the scripted ``racing_line`` and from the
+  shipped state policy ``ppo_generalist`` (the teacher of the camera recipe): each with
+  today's settings (64 x 48, (16, 32, 16), ``--camera-envs`` copies, ``DistillConfig``'s
+  defaults), then with the recipe's (``experiments/camera/distill.toml``: 32 x 24, (8, 16, 8),
+  channels-last, 512 copies).
+
+The runners are what ``h2h-racing train`` builds (``training.train.make_runner``), so the
+recipe rows time the recipe files, not settings of the bench's own.
 """
 
 from __future__ import annotations
@@ -41,6 +51,7 @@ import os
 import platform
 import statistics
 import time
+from pathlib import Path
 from typing import Any
 
 os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
@@ -69,11 +80,12 @@ OPT_IN = {"2 torch threads"}
 """Settings run only when named in ``--only``: two threads on a loaded 2-core machine ran
 30x slower in a quick run (OpenMP's threads spin for cores they do not get;
 ``TrainConfig.torch_threads``), which would make the default run take many minutes."""
-SMALL_CNN = {"output_channels": [8, 16, 8], "kernel_size": [5, 3, 3], "stride": [2, 2, 2],
-             "padding": "zeros"}
-"""The narrower CNN of the small camera rows (today's: 16, 32, 16 channels)."""
-DISTIL = ImitationConfig(teacher="racing_line")
-"""The distillation rows' teacher."""
+RECIPES = Path(__file__).resolve().parents[1] / "experiments" / "camera"
+"""The camera recipe (``distill.toml``, then ``finetune.toml``) whose settings the fast camera
+rows time."""
+TEACHERS = ("racing_line", "ppo_generalist")
+"""The distillation rows' teachers: the scripted racing line (labels computed in the env) and
+the state policy the camera recipe distils (an MLP forward pass per step)."""
 
 
 @dataclasses.dataclass
@@ -84,6 +96,8 @@ class Bench:
     runner: Any
     threads: int
     obs: Any = None
+    base: str | None = None
+    """The row whose figures this one's ratios divide by (None: the table's first)."""
     total: list[float] = dataclasses.field(default_factory=list)
     """Samples/s of whole iterations."""
     update: list[float] = dataclasses.field(default_factory=list)
@@ -102,29 +116,21 @@ def state_config(changes: dict[str, Any], envs: int, cars: int) -> TrainConfig:
 
 
 def build(name: str, config: TrainConfig, compile_models: bool = False,
-          cnn: dict[str, Any] | None = None) -> Bench:
-    """An rsl-rl runner for ``config`` (PPO, or distillation with a ``teacher``)."""
-    from rsl_rl.runners import DistillationRunner, OnPolicyRunner
+          base: str | None = None) -> Bench:
+    """The rsl-rl runner ``h2h-racing train`` builds for ``config`` (PPO, or distillation
+    with a ``teacher``)."""
+    from h2h_racing.training.train import make_runner
 
     torch.manual_seed(config.seed)
     torch.set_num_threads(config.torch_threads)
     env = config.make_env()
-    cfg = config.rsl_rl_dict()
-    if cnn is not None:
-        for section in ("actor", "critic", "student"):
-            if "cnn_cfg" in cfg.get(section, {}):
-                cfg[section]["cnn_cfg"] = dict(cnn)
     with contextlib.redirect_stdout(io.StringIO()):  # rsl-rl prints the models
-        if config.imitation.teacher is None:
-            runner = OnPolicyRunner(env, cfg, log_dir=None, device="cpu")
-        else:
-            runner = DistillationRunner(env, cfg, log_dir=None, device="cpu")
-        runner.alg.teacher_loaded = True  # a scripted teacher: the env's expert group
+        runner = make_runner(config, env)
     if compile_models:
         runner.alg.compile("default")
     runner.alg.train_mode()
     return Bench(name=name, runner=runner, threads=config.torch_threads,
-                 obs=env.get_observations())
+                 obs=env.get_observations(), base=base)
 
 
 def iteration(bench: Bench) -> tuple[float, float]:
@@ -167,21 +173,55 @@ def run(benches: list[Bench], rounds: int, warmup: int) -> None:
 
 
 def report(title: str, benches: list[Bench]) -> None:
-    """Print medians and ratios to the first (today's) row."""
+    """Print medians and ratios to each row's ``base`` row (by default the first, today's)."""
     print(f"\n{title}")
-    print(f"{'setting':<32} {'iteration samples/s':>20} {'ratio':>6} {'update samples/s':>17} "
-          f"{'ratio':>6}  (median, min-max)")
-    base = benches[0]
-    base_total = statistics.median(base.total) if base.total else float("nan")
-    base_update = statistics.median(base.update) if base.update else float("nan")
+    width = max(32, *(len(b.name) for b in benches))
+    print(f"{'setting':<{width}} {'iteration samples/s':>20} {'ratio':>6} "
+          f"{'update samples/s':>17} {'ratio':>6}  (median, min-max)")
+    rows = {bench.name: bench for bench in benches}
+
+    def median(values: list[float]) -> float:
+        return statistics.median(values) if values else float("nan")
+
     for bench in benches:
         if bench.error is not None:
-            print(f"{bench.name:<32} failed: {bench.error}")
+            print(f"{bench.name:<{width}} failed: {bench.error}")
             continue
-        total, update = statistics.median(bench.total), statistics.median(bench.update)
-        print(f"{bench.name:<32} {total:>20,.0f} {total / base_total:>6.2f} {update:>17,.0f} "
-              f"{update / base_update:>6.2f}  ({min(bench.total):,.0f}-{max(bench.total):,.0f}; "
+        base = rows.get(bench.base or "", benches[0])
+        total, update = median(bench.total), median(bench.update)
+        print(f"{bench.name:<{width}} {total:>20,.0f} {total / median(base.total):>6.2f} "
+              f"{update:>17,.0f} {update / median(base.update):>6.2f}  "
+              f"({min(bench.total):,.0f}-{max(bench.total):,.0f}; "
               f"{min(bench.update):,.0f}-{max(bench.update):,.0f})")
+
+
+def camera_rows(envs: int,
+                recipe_envs: int | None = None) -> list[tuple[str, TrainConfig, str]]:
+    """(name, config, base row) of the camera rows: today's settings with ``envs`` copies (each
+    its own base), and the camera recipe's (with ``recipe_envs`` copies instead of its own when
+    given), each based on the today's row before it."""
+    distill = TrainConfig.from_toml(RECIPES / "distill.toml")
+    finetune = TrainConfig.from_toml(RECIPES / "finetune.toml")
+    camera = {"camera_size": finetune.camera_size, "camera_channels": finetune.camera_channels,
+              "channels_last": finetune.channels_last,
+              "num_envs": recipe_envs or finetune.num_envs}
+    today_ppo = TrainConfig(num_envs=envs, observations="camera", eval_every=0)
+    size = "x".join(map(str, distill.camera_size))
+    net = "-".join(map(str, distill.camera_channels))
+    fast = f"{size}, CNN {net}" + (", channels-last" if distill.channels_last else "")
+    rows: list[tuple[str, TrainConfig, str]] = [
+        ("camera PPO 64x48", today_ppo, "camera PPO 64x48"),
+        (f"camera PPO {fast}, {camera['num_envs']} copies",
+         dataclasses.replace(today_ppo, **camera), "camera PPO 64x48")]
+    for teacher in TEACHERS:
+        imitation = ImitationConfig(teacher=teacher)
+        today = f"distill {teacher} 64x48"
+        recipe = dataclasses.replace(distill, imitation=imitation, eval_every=0,
+                                     num_envs=recipe_envs or distill.num_envs)
+        rows += [(today, TrainConfig(num_envs=envs, observations="camera_only",
+                                     imitation=imitation, eval_every=0), today),
+                 (f"distill {teacher} {fast}, {recipe.num_envs} copies", recipe, today)]
+    return rows
 
 
 def main() -> None:
@@ -198,7 +238,8 @@ def main() -> None:
                         help="comma-separated setting names to run (today's always runs)")
     parser.add_argument("--camera", action="store_true", help="also the camera rows")
     parser.add_argument("--camera-envs", type=int, default=64,
-                        help="env copies of the camera rows (default: 64)")
+                        help="env copies of today's camera rows; the recipe's rows use the "
+                             "recipe's (with --quick, these too) (default: 64)")
     parser.add_argument("--quick", action="store_true",
                         help="64 copies, 2 rounds, 1 warm-up: a smoke run")
     args = parser.parse_args()
@@ -227,25 +268,12 @@ def main() -> None:
            f"iteration ({args.rounds} rounds, load average {os.getloadavg()[0]:.1f} at the end)",
            benches)
     if args.camera:
-        small = {"camera_size": (32, 24)}
-        rows = [
-            ("camera PPO 64x48", TrainConfig(num_envs=args.camera_envs, observations="camera",
-                                             eval_every=0), None),
-            ("camera PPO 32x24, small CNN", TrainConfig(num_envs=args.camera_envs,
-                                                        observations="camera", eval_every=0,
-                                                        **small), SMALL_CNN),
-            ("distill 64x48", TrainConfig(num_envs=args.camera_envs,
-                                          observations="camera_only", imitation=DISTIL,
-                                          eval_every=0), None),
-            ("distill 32x24, small CNN", TrainConfig(num_envs=args.camera_envs,
-                                                     observations="camera_only",
-                                                     imitation=DISTIL, eval_every=0,
-                                                     **small), SMALL_CNN),
-        ]
-        cameras = [build(name, config, cnn=cnn) for name, config, cnn in rows]
+        rows = camera_rows(args.camera_envs, recipe_envs=args.camera_envs if args.quick else None)
+        cameras = [build(name, config, base=base) for name, config, base in rows]
         run(cameras, max(2, args.rounds // 3), args.warmup)
-        report(f"camera rows, {args.camera_envs} copies (ratios to camera PPO 64x48)",
-               cameras)
+        report(f"camera rows, today's with {args.camera_envs} copies, each fast row's ratios to "
+               f"the today's row above it ({max(2, args.rounds // 3)} rounds, load average "
+               f"{os.getloadavg()[0]:.1f} at the end)", cameras)
 
 
 if __name__ == "__main__":

@@ -80,7 +80,7 @@ def _train_config(args: argparse.Namespace) -> object:
     flags = {"track": "track", "obs": "observations", "rules": "rules", "init": "init",
              "max_std": "max_std", "envs": "num_envs", "seed": "seed",
              "reward_function": "reward_function", "model_metadata": "model_metadata",
-             "simtrace": "simtrace_envs", "eval_every": "eval_every"}
+             "simtrace": "simtrace_envs", "eval_every": "eval_every", "device": "device"}
     data.update({field: getattr(args, flag) for flag, field in flags.items()
                  if getattr(args, flag) is not None})
     if args.opponents is not None:
@@ -287,6 +287,11 @@ def add_training_commands(sub: argparse._SubParsersAction) -> None:
                             "or at --iterations if that comes first")
     train.add_argument("--envs", type=int, default=None,
                        help="env copies stepped together (default: 256)")
+    train.add_argument("--device", default=None, choices=["cpu", "cuda"],
+                       help="torch device of the learner (policy, critic, teacher, optimizer); "
+                            "the env always runs on the CPU and its observations move to the "
+                            "device once per step; cuda needs a GPU that torch sees "
+                            "(default: cpu, or the --config file's device)")
     train.add_argument("--seed", type=int, default=None, help=SEED_HELP + " (default: 0)")
     train.add_argument("--reward-function", default=None, metavar="REWARD.py",
                        help="train on a DeepRacer reward_function(params) file (default: the "

@@ -34,12 +34,12 @@ if TYPE_CHECKING:
 def policy_payload(runner: Any, config: TrainConfig,
                    training: dict[str, float] | None = None) -> dict[str, Any]:
     """The policy dict of ``runner``'s actor: weights (copied, so later training does not
-    change them), the actor's config and the configs it was trained with. It holds only
-    tensors and plain Python values (see ``save_policy``; ``TrainedPolicy.from_payload``
-    drives with it directly)."""
+    change them, onto the CPU whatever device trained them, in PyTorch's default layout), the
+    actor's config and the configs it was trained with. It holds only tensors and plain Python
+    values (see ``save_policy``; ``TrainedPolicy.from_payload`` drives with it directly)."""
     return {
         "format": POLICY_FORMAT,
-        "actor_state_dict": {key: value.detach().clone()
+        "actor_state_dict": {key: value.detach().to("cpu").contiguous().clone()
                              for key, value in runner.alg.get_policy().state_dict().items()},
         "actor_cfg": config.actor_dict(),
         "obs_groups": config.actor_groups(),

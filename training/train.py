@@ -32,7 +32,9 @@ except ImportError as _error:
 
 import numpy as np  # noqa: E402
 
+from h2h_racing.training.camera_network import use_channels_last  # noqa: E402
 from h2h_racing.training.config import PROCEDURAL, TrainConfig  # noqa: E402
+from h2h_racing.training.device import check_device_available  # noqa: E402
 from h2h_racing.training.policy_file import (  # noqa: E402
     load_actor, load_init, policy_payload, save_policy)
 from h2h_racing.training.teachers import load_teacher  # noqa: E402
@@ -58,11 +60,14 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
         verbose: Print rsl-rl's model summaries and its block of figures after every
             iteration (with the run's totals) instead.
     """
+    # Before any work: a run asked for a GPU this machine lacks fails here, not after the env.
+    check_device_available(config.device)
     torch.manual_seed(config.seed)
     torch.set_num_threads(config.torch_threads)
+    # The env runs on the CPU whatever the learner's device (rsl-rl moves the observations).
     env = config.make_env(simtrace=None if out is None else Path(out) / "simtrace")
     with quiet(verbose):
-        runner = _runner(config, env, None if out is None else str(Path(out)))
+        runner = make_runner(config, env, None if out is None else str(Path(out)))
     display = TrainDisplay(runner, iterations, minutes, mode=progress, verbose=verbose)
     start = time.perf_counter()
     done = 0
@@ -115,26 +120,33 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
     return runner
 
 
-def _runner(config: TrainConfig, env: Any, log_dir: str | None) -> Any:
-    """The rsl-rl runner of ``config`` on ``env`` (PPO, or distillation of a teacher), with the
-    ``init`` policy's weights loaded."""
+def make_runner(config: TrainConfig, env: Any, log_dir: str | None = None) -> Any:
+    """The rsl-rl runner of ``config`` on ``env`` (PPO, or distillation of a teacher), on
+    ``config.device``, with the ``init`` policy's weights loaded and, with
+    ``config.channels_last``, its networks' weights channels-last (``train`` uses it, and
+    ``benchmarks/bench_train.py`` times what it builds)."""
     from rsl_rl.runners import DistillationRunner, OnPolicyRunner
 
+    device = config.device
     if config.imitation.teacher is None:
-        runner = OnPolicyRunner(env, config.rsl_rl_dict(), log_dir=log_dir, device="cpu")
+        runner = OnPolicyRunner(env, config.rsl_rl_dict(), log_dir=log_dir, device=device)
     elif config.scripted_teacher:
-        runner = DistillationRunner(env, config.rsl_rl_dict(), log_dir=log_dir, device="cpu")
+        runner = DistillationRunner(env, config.rsl_rl_dict(), log_dir=log_dir, device=device)
         runner.alg.teacher_loaded = True  # the env's expert group: no weights to load
     else:
         teacher = load_teacher(config)
         runner = DistillationRunner(env, config.rsl_rl_dict(teacher), log_dir=log_dir,
-                                    device="cpu")
+                                    device=device)
         # The teacher is the policy file's actor: same model config, so its weights (and its
         # observation normaliser's statistics) load strictly.
         load_actor(runner.alg.teacher, teacher, f"teacher {config.imitation.teacher!r}")
         runner.alg.teacher_loaded = True
     if config.init is not None:
         load_init(runner, config.init)
+    if config.channels_last:
+        for name in ("actor", "critic", "student"):
+            if getattr(runner.alg, name, None) is not None:
+                use_channels_last(getattr(runner.alg, name))
     return runner
 
 

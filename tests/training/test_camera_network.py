@@ -1,0 +1,159 @@
+"""The camera network in the config (``TrainConfig.camera_channels``, ``camera_size``,
+``channels_last``): what the actor is built with, and that a trained camera policy loads back
+and drives with its own network and image size wherever policies are loaded."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+from tensordict import TensorDict
+
+import h2h_racing
+from h2h_racing.policies import make_driver
+from h2h_racing.policies.trained import TrainedPolicy, load_policy_payload
+from h2h_racing.training.camera_network import cnn_config
+from h2h_racing.training.config import TrainConfig
+from h2h_racing.training.policy_file import policy_payload
+from h2h_racing.training.train import make_runner, train
+
+# Two layers of 4 and 8 channels on a 24 x 16 image: 6 x 4 x 8 = 192 features.
+SMALL = TrainConfig(track="oval", num_envs=4, num_steps_per_env=4, hidden_dims=(8, 8),
+                    observations="camera_only", camera_size=(24, 16), camera_channels=(4, 8),
+                    eval_every=0)
+RECIPES = Path(__file__).resolve().parents[2] / "experiments" / "camera"
+
+
+def _convs(model: torch.nn.Module) -> list[torch.nn.Conv2d]:
+    return [m for m in model.modules() if isinstance(m, torch.nn.Conv2d)]
+
+
+def _env_after_a_few_steps() -> object:
+    env = h2h_racing.parallel_env(track="oval", num_cars=1, race_type="time_trial")
+    env.reset(seed=3)
+    for _ in range(6):
+        env.step({"car_0": np.array([0.2, 0.6], np.float32)})
+    return env
+
+
+class TestConfig:
+    def test_default_network_is_the_one_camera_speedway_was_trained_with(self) -> None:
+        shipped = load_policy_payload("camera_speedway")["actor_cfg"]["cnn_cfg"]
+        assert TrainConfig().camera_channels == (16, 32, 16)
+        assert cnn_config((16, 32, 16)) == shipped == {
+            "output_channels": [16, 32, 16], "kernel_size": [5, 3, 3], "stride": [2, 2, 2],
+            "padding": "zeros"}
+
+    def test_channels_choose_the_layers_of_actor_and_critic(self) -> None:
+        config = dataclasses.replace(SMALL, observations="camera", camera_channels=(8, 16, 8))
+        cfg = config.rsl_rl_dict()
+        for model in ("actor", "critic"):
+            assert cfg[model]["cnn_cfg"]["output_channels"] == [8, 16, 8]
+            assert cfg[model]["cnn_cfg"]["kernel_size"] == [5, 3, 3]
+        four = dataclasses.replace(SMALL, camera_channels=(4, 4, 4, 4)).actor_dict()
+        assert four["cnn_cfg"]["kernel_size"] == [5, 3, 3, 3]
+        assert four["cnn_cfg"]["stride"] == [2, 2, 2, 2]
+
+    @pytest.mark.parametrize("channels", [(), (0, 8), (8, -1), (4, 4, 4, 4, 4), (8.0, 16),
+                                          (True, 8), "16"])
+    def test_bad_channels_rejected(self, channels: object) -> None:
+        with pytest.raises(ValueError, match="camera_channels must be 1 to 4 channel counts"):
+            TrainConfig(camera_channels=channels)  # type: ignore[arg-type]
+
+    @pytest.mark.parametrize("size", [(64,), (0, 48), (64, 48, 1), (64.0, 48)])
+    def test_bad_image_size_rejected(self, size: object) -> None:
+        with pytest.raises(ValueError, match="camera_size must be .width, height."):
+            TrainConfig(camera_size=size)  # type: ignore[arg-type]
+
+    def test_settable_from_toml(self, tmp_path: Path) -> None:
+        path = tmp_path / "train.toml"
+        path.write_text('observations = "camera_only"\ncamera_size = [32, 24]\n'
+                        'camera_channels = [8, 16, 8]\nchannels_last = true\n')
+        config = TrainConfig.from_toml(path)
+        assert config.camera_size == (32, 24) and config.camera_channels == (8, 16, 8)
+        assert config.channels_last is True
+        assert config.env_config().camera.width == 32
+        path.write_text("camera_channels = 8\n")
+        with pytest.raises(ValueError, match="camera_channels"):
+            TrainConfig.from_toml(path)
+
+    def test_the_recipe_files_read(self) -> None:
+        distill = TrainConfig.from_toml(RECIPES / "distill.toml")
+        finetune = TrainConfig.from_toml(RECIPES / "finetune.toml")
+        assert distill.imitation.teacher == "ppo_generalist"
+        assert distill.observations == finetune.observations == "camera_only"
+        # The fine-tune starts from the distilled student: the same image and network.
+        for name in ("camera_size", "camera_channels", "hidden_dims"):
+            assert getattr(distill, name) == getattr(finetune, name)
+
+
+@pytest.fixture(scope="module")
+def small_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, object]:
+    out = tmp_path_factory.mktemp("camera")
+    runner = train(SMALL, iterations=1, out=out)
+    return out / "policy.pt", runner
+
+
+class TestLoading:
+    def test_policy_file_rebuilds_its_network_and_image(
+            self, small_run: tuple[Path, object]) -> None:
+        path, runner = small_run
+        env = _env_after_a_few_steps()  # the env's own camera is 160 x 120
+        for driver in (TrainedPolicy(path), make_driver(str(path))):
+            driver.reset(env.core)  # type: ignore[attr-defined]
+            assert [c.out_channels for c in _convs(driver._actor)] == [4, 8]
+            groups = driver._observe(env.core, 0)  # type: ignore[attr-defined]
+            assert groups["camera"].shape == (1, 1, 16, 24)
+            student = runner.alg.get_policy()  # type: ignore[attr-defined]
+            student.eval()
+            with torch.inference_mode():
+                expected = student(TensorDict({k: torch.from_numpy(v) for k, v in
+                                               groups.items()}, batch_size=[1])).numpy()
+            assert np.array_equal(driver.act(env.core, 0), np.clip(expected, -1, 1))
+
+    def test_camera_speedway_loads_and_drives_unchanged(self) -> None:
+        driver = make_driver("camera_speedway")
+        env = _env_after_a_few_steps()
+        driver.reset(env.core)
+        assert [c.out_channels for c in _convs(driver._actor)] == [16, 32, 16]
+        assert driver._observe(env.core, 0)["camera"].shape == (1, 1, 48, 64)
+        action = driver.act(env.core, 0)
+        assert action.shape == (1, 2) and np.isfinite(action).all()
+
+
+class TestChannelsLast:
+    def test_weights_are_channels_last_and_still_learn(self) -> None:
+        from h2h_racing.training.imitation import ImitationConfig
+
+        config = dataclasses.replace(SMALL, channels_last=True,
+                                     imitation=ImitationConfig(teacher="racing_line"))
+        runner = make_runner(config, config.make_env())
+        convs = _convs(runner.alg.get_policy())
+        assert all(c.weight.is_contiguous(memory_format=torch.channels_last) for c in convs)
+        # With one input channel both layouts are the same memory; the second layer's differ.
+        assert not convs[1].weight.is_contiguous()
+        before = [c.weight.detach().clone() for c in convs]
+        runner.learn(1)
+        # The optimizer updates the converted weights (the parameters kept their identity).
+        assert all(not torch.equal(b, c.weight) for b, c in zip(before, convs))
+
+    def test_policy_file_holds_default_layout_and_drives_the_same(self) -> None:
+        config = dataclasses.replace(SMALL, channels_last=True)
+        runner = train(config, iterations=1)
+        payload = policy_payload(runner, config)
+        weights = [v for v in payload["actor_state_dict"].values() if v.dim() == 4]
+        assert weights and all(w.is_contiguous() for w in weights)
+        driver = TrainedPolicy.from_payload(payload, name="cl")
+        env = _env_after_a_few_steps()
+        driver.reset(env.core)
+        groups = driver._observe(env.core, 0)
+        student = runner.alg.get_policy()
+        student.eval()
+        with torch.inference_mode():
+            expected = student(TensorDict({k: torch.from_numpy(v) for k, v in groups.items()},
+                                          batch_size=[1])).numpy()
+        # Same weights; the two layouts may sum in another order (float rounding).
+        assert np.allclose(driver.act(env.core, 0), np.clip(expected, -1, 1), atol=1e-5)
