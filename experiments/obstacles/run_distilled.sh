@@ -13,7 +13,11 @@ cd "$(dirname "$0")/../.."
 export GIT_PYTHON_REFRESH=quiet  # rsl-rl imports GitPython
 MINUTES="${MINUTES:-8}"
 SEEDS="${SEEDS:-0 1 2}"
-OUT=runs/obstacles
+# Extra flags for a quick check of the script, e.g. TRAIN_ARGS="--envs 16"
+# EVAL_ARGS="--tracks oval --routes none" MINUTES=0.1 SEEDS=0.
+TRAIN_ARGS="${TRAIN_ARGS:-}"
+EVAL_ARGS="${EVAL_ARGS:-}"
+OUT="${OUT:-runs/obstacles}"
 mkdir -p "$OUT"
 python experiments/obstacles/prepare_init.py "$OUT/init_generalist.pt" || exit 1
 for s in $SEEDS; do
@@ -22,10 +26,11 @@ for s in $SEEDS; do
   # --minutes decides the length (--iterations only caps it).
   h2h-racing train --config experiments/obstacles/distilled.toml \
     --init "$OUT/init_generalist.pt" --minutes "$MINUTES" --iterations 100000 --seed "$s" \
-    --no-onnx --no-progress --out "$run" > "$run.log" 2>&1 || { echo "seed $s failed: $run.log"; continue; }
+    --no-onnx --no-progress --out "$run" $TRAIN_ARGS > "$run.log" 2>&1 \
+    || { echo "seed $s failed: $run.log"; continue; }
   echo "$(date -u +%H:%M:%S) evaluating seed $s"
   python experiments/obstacles/evaluate_races.py "$run/policy.pt" --json "$run-figures.json" \
-    > "$run-figures.txt" 2>&1 || echo "seed $s evaluation failed: $run-figures.txt"
+    $EVAL_ARGS > "$run-figures.txt" 2>&1 || echo "seed $s evaluation failed: $run-figures.txt"
 done
 for s in $SEEDS; do
   echo "== seed $s"
