@@ -16,6 +16,8 @@ from pathlib import Path
 from typing import Any, Literal
 
 from h2h_racing.config import EnvConfig, RaceRules, RewardConfig
+from h2h_racing.training.camera_network import check_camera, cnn_config
+from h2h_racing.training.device import check_device_name
 from h2h_racing.training.imitation import SCRIPTED_TEACHERS, ImitationConfig
 from h2h_racing.training.race_settings import RaceSettings
 from h2h_racing.training.teachers import load_teacher
@@ -161,6 +163,22 @@ class TrainConfig:
     """Reward weights."""
     camera_size: tuple[int, int] = (64, 48)
     """(width, height) of the camera image for camera policies [px]."""
+    camera_channels: tuple[int, ...] = (16, 32, 16)
+    """Output channels of the camera CNN's convolutions, one per layer (1-4 layers; a 5 x 5
+    kernel, then 3 x 3 ones, each with stride 2 and zero padding, flattened at the end: no
+    pooling, since where the lines and cars are in the image is what steers). The default
+    turns 64 x 48 into 8 x 6 x 16 = 768 features; ``(8, 16, 8)`` on a 32 x 24 image (96
+    features) is the fast camera recipe (``experiments/camera``; benchmarks/README.md)."""
+    channels_last: bool = False
+    """Keep the camera CNN's weights, and so its activations, channels-last (NHWC) on the
+    learner's device instead of PyTorch's NCHW: oneDNN's convolutions on a CPU run without
+    reordering the tensors (benchmarks/README.md). The saved policy is the same either way."""
+    device: str = "cpu"
+    """Torch device of the learner: ``"cpu"``, ``"cuda"`` or ``"cuda:<index>"``. The learner
+    (the rsl-rl runner: actor, critic, teacher, optimizer, rollout storage) runs there; the
+    env always runs on the CPU (numpy and numba), and rsl-rl moves its observations to the
+    device once per step and the actions back. Saved policies hold CPU tensors, so they load
+    on any machine. ``train`` refuses ``cuda`` before any work where torch sees no GPU."""
     seed: int = 0
     """Seeds torch and the env."""
     torch_threads: int = 1
@@ -221,10 +239,14 @@ class TrainConfig:
                              f"driver ({', '.join(SCRIPTED_TEACHERS)})")
         if not isinstance(self.race, RaceSettings):
             raise ValueError(f"TrainConfig.race must be a RaceSettings, got {self.race!r}")
-        if self.race.race_type == "head_to_head" and self.num_cars < 2:
+        if "head_to_head" in (self.race.race_type, *self.race.race_types) and self.num_cars < 2:
             raise ValueError("[race] race_type 'head_to_head' needs two cars or more per copy: "
                              "give an opponent (--opponents racing_line) or set num_cars, or "
                              "train against bot cars with race_type 'head_to_bot'")
+        if self.race.race_types and self.track != PROCEDURAL:
+            raise ValueError(f"[race] race_types {list(self.race.race_types)} take turns, one "
+                             f"per random track: set track = 'procedural' (got "
+                             f"{self.track!r}), or give a single race_type")
         if not isinstance(self.procedural, ProceduralTracks):
             raise ValueError(f"TrainConfig.procedural must be a ProceduralTracks, got "
                              f"{self.procedural!r}")
@@ -256,6 +278,11 @@ class TrainConfig:
         if not (isinstance(self.eval_race_seconds, (int, float)) and self.eval_race_seconds > 0):
             raise ValueError(f"TrainConfig.eval_race_seconds must be > 0 [s], got "
                              f"{self.eval_race_seconds!r}")
+        check_camera(self.camera_size, self.camera_channels)
+        if not isinstance(self.channels_last, bool):
+            raise ValueError(f"TrainConfig.channels_last must be true or false, got "
+                             f"{self.channels_last!r}")
+        check_device_name(self.device)
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "train config") -> TrainConfig:
@@ -330,10 +357,7 @@ class TrainConfig:
             actor["distribution_cfg"]["std_range"] = [STD_FLOOR, float(self.max_std)]
             actor["distribution_cfg"]["init_std"] = min(init_std, float(self.max_std))
         if camera:
-            # Three stride-2 convolutions, then flattened (no global pooling: where the lines
-            # and cars are in the image is what steers): 64 x 48 -> 8 x 6 x 16 = 768 features.
-            actor["cnn_cfg"] = {"output_channels": [16, 32, 16], "kernel_size": [5, 3, 3],
-                                "stride": [2, 2, 2], "padding": "zeros"}
+            actor["cnn_cfg"] = cnn_config(self.camera_channels)
         return actor
 
     def rsl_rl_dict(self, teacher: dict[str, Any] | None = None) -> dict[str, Any]:
@@ -400,4 +424,4 @@ class TrainConfig:
                             opponent=opponent, observations=self.observations,
                             seed=self.seed, device=device, reward_function=self.reward_function,
                             simtrace=log, simtrace_envs=max(self.simtrace_envs, 1),
-                            expert=self.imitation.expert())
+                            expert=self.imitation.expert(), race_types=self.race.race_types)
