@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # obstacle_generalist candidate (issue 22): seeds 0, 1, 2 of distilled.toml one after the
 # other (MINUTES of training each, 8 by default), each followed by its figures on the 7 shipped
-# tracks (evaluate_races.py: object-avoidance and head-to-bot races, seeds 1-3, and the
-# time-trial lap against ppo_generalist), so that a cut-short series still has its first seeds.
+# tracks and the route files (evaluate_races.py: object-avoidance and head-to-bot races, seeds
+# 1-3, and the time-trial lap against ppo_generalist), run beside the next seed's training, so
+# that a cut-short series still has its first seeds.
 #   experiments/obstacles/run_distilled.sh
 # Writes runs/obstacles/: init_generalist.pt (prepare_init.py), distilled-seedN/ (the run,
 # policy.pt), distilled-seedN.log, distilled-seedN-figures.{txt,json}, and
@@ -28,10 +29,13 @@ for s in $SEEDS; do
     --init "$OUT/init_generalist.pt" --minutes "$MINUTES" --iterations 100000 --seed "$s" \
     --no-onnx --no-progress --out "$run" $TRAIN_ARGS > "$run.log" 2>&1 \
     || { echo "seed $s failed: $run.log"; continue; }
-  echo "$(date -u +%H:%M:%S) evaluating seed $s"
-  python experiments/obstacles/evaluate_races.py "$run/policy.pt" --json "$run-figures.json" \
-    $EVAL_ARGS > "$run-figures.txt" 2>&1 || echo "seed $s evaluation failed: $run-figures.txt"
+  echo "$(date -u +%H:%M:%S) evaluating seed $s (in the background)"
+  # On the second core while the next seed trains (training uses one thread).
+  ( python experiments/obstacles/evaluate_races.py "$run/policy.pt" --json "$run-figures.json" \
+      $EVAL_ARGS > "$run-figures.txt" 2>&1 || echo "seed $s evaluation failed: $run-figures.txt"
+    echo "$(date -u +%H:%M:%S) seed $s evaluated" ) &
 done
+wait
 for s in $SEEDS; do
   echo "== seed $s"
   grep -h "^total" "$OUT/distilled-seed$s-figures.txt" 2>/dev/null
