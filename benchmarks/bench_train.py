@@ -3,6 +3,7 @@
     python benchmarks/bench_train.py                  # state rows, about 3-5 minutes
     python benchmarks/bench_train.py --quick          # a smoke run of every row
     python benchmarks/bench_train.py --camera         # also the camera rows (issue 21)
+    python benchmarks/bench_train.py --cpu-time       # thread CPU time (a shared machine)
 
 What is timed: rsl-rl PPO iterations exactly as ``h2h-racing train`` runs them
 (``training.config.TrainConfig.rsl_rl_dict``: state observations, an MLP actor and critic,
@@ -18,6 +19,9 @@ Per setting the bench prints the median over ``--rounds`` of samples/s for a who
 today's settings. Every setting is built once, warmed up, then the settings take turns one
 iteration at a time (the order rotates every round), so all of them see the same machine
 load; on a shared machine the absolute figures move with the load, the ratios much less.
+``--cpu-time`` times with the thread's CPU time instead of the wall clock, which other
+processes on the machine barely move (torch runs one intra-op thread and the env one thread:
+the work is this thread's; a setting with more torch threads is refused then).
 
 Settings (``SETTINGS``): ``today`` is ``TrainConfig``'s defaults (4 epochs x 4 mini-batches,
 hidden (128, 128), one torch thread); the others change one or two of: mini-batches per epoch
@@ -105,6 +109,10 @@ class Bench:
     error: str | None = None
 
 
+clock = time.perf_counter
+"""The timer of every figure (``--cpu-time``: the thread's CPU time)."""
+
+
 def state_config(changes: dict[str, Any], envs: int, cars: int) -> TrainConfig:
     """``h2h-racing train``'s config for state observations with ``changes``."""
     ppo = {k: v for k, v in changes.items() if k in {f.name for f in
@@ -139,7 +147,7 @@ def iteration(bench: Bench) -> tuple[float, float]:
     torch.set_num_threads(bench.threads)
     steps = runner.cfg["num_steps_per_env"]
     obs = bench.obs
-    start = time.perf_counter()
+    start = clock()
     with torch.inference_mode():
         for _ in range(steps):
             actions = runner.alg.act(obs)
@@ -147,9 +155,9 @@ def iteration(bench: Bench) -> tuple[float, float]:
             runner.alg.process_env_step(obs, rewards, dones, extras)
         if hasattr(runner.alg, "compute_returns"):
             runner.alg.compute_returns(obs)
-    middle = time.perf_counter()
+    middle = clock()
     runner.alg.update()
-    end = time.perf_counter()
+    end = clock()
     bench.obs = obs
     return middle - start, end - middle
 
@@ -157,6 +165,10 @@ def iteration(bench: Bench) -> tuple[float, float]:
 def run(benches: list[Bench], rounds: int, warmup: int) -> None:
     """Warm every setting up, then take turns one iteration each, rotating the order."""
     for bench in benches:
+        if clock is time.thread_time and bench.threads > 1 and bench.error is None:
+            bench.error = (f"{bench.threads} torch threads: the thread's CPU time misses the "
+                           "other threads' work (run it without --cpu-time)")
+            continue
         try:
             for _ in range(warmup):
                 iteration(bench)
@@ -242,11 +254,17 @@ def main() -> None:
                              "recipe's (with --quick, these too) (default: 64)")
     parser.add_argument("--quick", action="store_true",
                         help="64 copies, 2 rounds, 1 warm-up: a smoke run")
+    parser.add_argument("--cpu-time", action="store_true",
+                        help="time with this thread's CPU time instead of the wall clock "
+                             "(steadier where other processes share the CPU)")
     args = parser.parse_args()
+    global clock
+    clock = time.thread_time if args.cpu_time else time.perf_counter
     if args.quick:
         args.envs, args.rounds, args.warmup, args.camera_envs = 64, 2, 1, 16
     print(f"torch {torch.__version__}, {platform.processor() or platform.machine()}, "
-          f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f} at the start")
+          f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f} at the start, "
+          f"{'thread CPU time' if args.cpu_time else 'wall clock'}")
     wanted = (set(SETTINGS) - OPT_IN if args.only is None
               else {"today", *args.only.split(",")})
     unknown = wanted - set(SETTINGS)
