@@ -34,7 +34,7 @@ With ``--camera`` also camera rows (issue 21), each fast row against its own tod
 - PPO with the camera actor (``observations="camera"``: camera and state vector, and a CNN
   critic): today's (``TrainConfig``'s 64 x 48 image and (16, 32, 16) CNN, ``--camera-envs``
   copies), then with the camera recipe's image, CNN, channels-last layout and copies
-  (``experiments/camera/finetune.toml``);
+  (``experiments/camera/ppo.toml``);
 - distillation into a camera-only student from the scripted ``racing_line`` and from the
   shipped state policy ``ppo_generalist`` (the teacher of the camera recipe): each with
   today's settings (64 x 48, (16, 32, 16), ``--camera-envs`` copies, ``DistillConfig``'s
@@ -85,7 +85,7 @@ OPT_IN = {"2 torch threads"}
 30x slower in a quick run (OpenMP's threads spin for cores they do not get;
 ``TrainConfig.torch_threads``), which would make the default run take many minutes."""
 RECIPES = Path(__file__).resolve().parents[1] / "experiments" / "camera"
-"""The camera recipe (``distill.toml``, then ``finetune.toml``) whose settings the fast camera
+"""The camera recipe (``distill.toml``, then ``ppo.toml``) whose settings the fast camera
 rows time."""
 TEACHERS = ("racing_line", "ppo_generalist")
 """The distillation rows' teachers: the scripted racing line (labels computed in the env) and
@@ -213,7 +213,7 @@ def camera_rows(envs: int,
     its own base), and the camera recipe's (with ``recipe_envs`` copies instead of its own when
     given), each based on the today's row before it."""
     distill = TrainConfig.from_toml(RECIPES / "distill.toml")
-    finetune = TrainConfig.from_toml(RECIPES / "finetune.toml")
+    finetune = TrainConfig.from_toml(RECIPES / "ppo.toml")
     camera = {"camera_size": finetune.camera_size, "camera_channels": finetune.camera_channels,
               "channels_last": finetune.channels_last,
               "num_envs": recipe_envs or finetune.num_envs}

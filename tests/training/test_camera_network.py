@@ -82,7 +82,7 @@ class TestConfig:
 
     def test_the_recipe_files_read(self) -> None:
         distill = TrainConfig.from_toml(RECIPES / "distill.toml")
-        finetune = TrainConfig.from_toml(RECIPES / "finetune.toml")
+        finetune = TrainConfig.from_toml(RECIPES / "ppo.toml")
         assert distill.imitation.teacher == "ppo_generalist"
         assert distill.observations == finetune.observations == "camera_only"
         # The fine-tune starts from the distilled student: the same image and network.
