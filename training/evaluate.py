@@ -199,21 +199,10 @@ def head_to_head(driver_a: Any, driver_b: Any, track: str, races: int = 20, laps
                          f"of {loaded.name}'s lap), got {gap!r}")
     drivers = [make_driver(d, seed=seed + car) if isinstance(d, str) else d
                for car, d in enumerate((driver_a, driver_b))]
-    rules = RaceRules(laps=laps, time_limit=60.0 * laps)
-    env_config = EnvConfig(track=track, num_cars=2, race_type="head_to_head", rules=rules,
-                           grid_spacing=float(spacing))
-    core = RaceCore(env_config, loaded, num_envs=races)
     rng = np.random.default_rng(seed)
     starts = (np.repeat(rng.uniform(0.0, loaded.length, races // 2), 2) if start == "both"
               else rng.uniform(0.0, loaded.length, races))
-    core.reset(seed=seed, slots=slots, start=starts, rolling=rolling)
-    for driver in drivers:
-        driver.reset(core)
-    while not core.done.all():
-        core.step(*env_config.commands(np.stack([d.act(core, car)
-                                                 for car, d in enumerate(drivers)], axis=1)))
-        if progress is not None:
-            progress(_share_done(core, laps), int(core.done.all(axis=1).sum()))
+    core = race_batch(track, loaded, drivers, laps, spacing, slots, starts, seed, rolling, progress)
     winner = (core.rank == 1) & core.finished
     behind = slots[:, 0] == 1
     names = tuple(getattr(d, "name", type(d).__name__) for d in drivers)
@@ -228,6 +217,29 @@ def head_to_head(driver_a: Any, driver_b: Any, track: str, races: int = 20, laps
         wins_behind=int(winner[behind, 0].sum()), races_front=int((~behind).sum()),
         wins_front=int(winner[~behind, 0].sum()), defences=pair(core.defences), start=start,
         gap=float(spacing), rolling=float(rolling))
+
+
+def race_batch(track: str, loaded: Track, drivers: list[Any], laps: int, spacing: float,
+               slots: np.ndarray, starts: np.ndarray, seed: int, rolling: float,
+               progress: Callable[[float, int], None] | None) -> RaceCore:
+    """Race ``drivers`` (car i is ``drivers[i]``) head to head on ``loaded`` (``track``'s
+    geometry) in one batched
+    core, one race per row of ``slots`` (each car's grid slot) and entry of ``starts`` (start
+    line [m]), under race rules with a time limit of a minute per lap; returns the core when
+    every race is done. ``head_to_head`` and ``evaluate_field.field_race`` share it."""
+    rules = RaceRules(laps=laps, time_limit=60.0 * laps)
+    env_config = EnvConfig(track=track, num_cars=len(drivers), race_type="head_to_head",
+                           rules=rules, grid_spacing=float(spacing))
+    core = RaceCore(env_config, loaded, num_envs=len(starts))
+    core.reset(seed=seed, slots=slots, start=starts, rolling=rolling)
+    for driver in drivers:
+        driver.reset(core)
+    while not core.done.all():
+        core.step(*env_config.commands(np.stack([d.act(core, car)
+                                                 for car, d in enumerate(drivers)], axis=1)))
+        if progress is not None:
+            progress(_share_done(core, laps), int(core.done.all(axis=1).sum()))
+    return core
 
 
 def _share_done(core: RaceCore, laps: int) -> float:

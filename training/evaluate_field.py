@@ -16,10 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from h2h_racing.config import EnvConfig, RaceRules
-from h2h_racing.core import RaceCore
+from h2h_racing.config import EnvConfig
 from h2h_racing.track_io import load_track
-from h2h_racing.training.evaluate import _share_done
+from h2h_racing.training.evaluate import race_batch
 
 
 @dataclass(frozen=True)
@@ -122,20 +121,9 @@ def field_race(driver: Any, opponents: Sequence[Any], track: str, races: int = 2
                          f"{gap!r}")
     drivers = [make_driver(d, seed=seed + car) if isinstance(d, str) else d
                for car, d in enumerate((driver, *opponents))]
-    rules = RaceRules(laps=laps, time_limit=60.0 * laps)
-    env_config = EnvConfig(track=track, num_cars=cars, race_type="head_to_head", rules=rules,
-                           grid_spacing=float(spacing))
-    core = RaceCore(env_config, loaded, num_envs=races)
     rng = np.random.default_rng(seed)
     starts = np.repeat(rng.uniform(0.0, loaded.length, races // cars), cars)
-    core.reset(seed=seed, slots=slots, start=starts, rolling=rolling)
-    for each in drivers:
-        each.reset(core)
-    while not core.done.all():
-        core.step(*env_config.commands(np.stack([d.act(core, car)
-                                                 for car, d in enumerate(drivers)], axis=1)))
-        if progress is not None:
-            progress(_share_done(core, laps), int(core.done.all(axis=1).sum()))
+    core = race_batch(track, loaded, drivers, laps, spacing, slots, starts, seed, rolling, progress)
     winner = (core.rank == 1) & core.finished
     slot = slots[:, 0]
 
