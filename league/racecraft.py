@@ -158,6 +158,9 @@ class Racecraft:
     """The player's passes over those races."""
     crashes: int = 0
     """Contacts the player caused over those races."""
+    clean_wins_behind: int = 0
+    """Races won from the slot behind without causing a crash (the league main's record,
+    ``League.record``)."""
 
     def line(self) -> str:
         """One text line: wins by slot, passes and crashes caused per race."""
@@ -189,7 +192,7 @@ def racecraft_records(matches: Iterable[MatchRecord], player: str,
         won = int(mine.position < theirs.position)
         behind = slots[player] > slots[opponent]
         row = [1, int(behind), won * behind, int(not behind), won * (not behind),
-               mine.overtakes, mine.crashes]
+               mine.overtakes, mine.crashes, won * behind * int(mine.crashes == 0)]
         for name in (opponent, "all"):
-            counts[name] = [x + y for x, y in zip(counts.get(name, [0] * 7), row)]
+            counts[name] = [x + y for x, y in zip(counts.get(name, [0] * len(row)), row)]
     return {name: Racecraft(player, name, *row) for name, row in counts.items()}

@@ -293,29 +293,17 @@ class League:
         Races from the front are left out because the grid decides them (the front car wins
         unless passed), and a win by contact does not count: issue 20's targets are wins from
         behind with few crashes caused, and this is the record that picks the state."""
-        from h2h_racing.league.racecraft import grid_slots
+        from h2h_racing.league.racecraft import racecraft_records
 
         first = round_index - self.config.main_restore.window + 1
         context = self._context("eval")
         anchors = list(self.config.anchors)
-        races = dict.fromkeys(anchors, 0)
-        clean_wins = dict.fromkeys(anchors, 0)
-        for match in self.store.matches(context=context):
-            cars = {car.player: car for car in match.cars}
-            slots = grid_slots(match)
-            if (learner not in cars or len(cars) != 2 or slots is None
-                    or not first <= _round_of(match.key, context) <= round_index):
-                continue
-            anchor = next(p for p in cars if p != learner)
-            if anchor not in races or slots[learner] < slots[anchor]:
-                continue
-            races[anchor] += 1
-            mine = cars[learner]
-            clean_wins[anchor] += int(mine.position < cars[anchor].position
-                                      and mine.crashes == 0)
-        if min(races.values()) == 0:
+        window = [m for m in self.store.matches(context=context)
+                  if first <= _round_of(m.key, context) <= round_index]
+        records = racecraft_records(window, learner, anchors)
+        if any(a not in records or records[a].races_behind == 0 for a in anchors):
             return None
-        return min(clean_wins[a] / races[a] for a in anchors)
+        return min(records[a].clean_wins_behind / records[a].races_behind for a in anchors)
 
     def _keep_best(self, learner: str, round_index: int) -> None:
         """Save ``learner``'s state when its record is the best so far; put the best state
