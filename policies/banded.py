@@ -174,8 +174,13 @@ def _cyclic_solve(dd, l1, l2, border, z, schur_inv, rhs, out):  # pragma: no cov
     m = dd.shape[0]
     y = rhs[:m].copy()
     _band_solve(dd, l1, l2, y)
-    r0 = rhs[m] - np.dot(border[0], y)
-    r1 = rhs[m + 1] - np.dot(border[1], y)
+    # Plain loops, not np.dot: numba compiles np.dot into a BLAS call that needs scipy at
+    # run time, which the package does not depend on.
+    r0 = rhs[m]
+    r1 = rhs[m + 1]
+    for i in range(m):
+        r0 -= border[0, i] * y[i]
+        r1 -= border[1, i] * y[i]
     x0 = schur_inv[0, 0] * r0 + schur_inv[0, 1] * r1
     x1 = schur_inv[1, 0] * r0 + schur_inv[1, 1] * r1
     for i in range(m):
