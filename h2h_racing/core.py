@@ -367,6 +367,7 @@ class RaceCore(CoreState, CoreSpawn, CorePenalties):
         else:
             crashed = collided = self._no_cars
             collision_events = []
+        obstacle_hits = [(env, car, k) for env, car, k, is_box in collision_events if is_box]
 
         # Overtakes and defences between cars racing before and after the step.
         passes: list[tuple[int, int, int]] = []
@@ -398,7 +399,7 @@ class RaceCore(CoreState, CoreSpawn, CorePenalties):
             if infraction.any():
                 penalised = self._infractions(infraction, off_track, crash_infraction,
                                               reversed_, immobilised,
-                                              self.distance - step_distance)
+                                              self.distance - step_distance, obstacle_hits)
 
         # Time limit and lap target.
         terminated = truncated = self._no_cars

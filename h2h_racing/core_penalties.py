@@ -1,8 +1,10 @@
 """Infractions in the batched core: ending or freezing cars, putting them back, parking them.
 
 Training rules end a car's episode at an infraction; race rules freeze it for a time penalty
-and then put it back on the nearest lane at its re-placement distance, on the first spot clear
-of every other body (``h2h_racing.replacement``). Cars whose episode ended are parked off the
+and then put it back on the first spot clear of every other body (``h2h_racing.replacement``):
+after leaving the track, reversing or stalling, on the lane nearest to where it stopped at its
+last valid progress; after hitting a box, as DeepRacer does (``RESET_BEHIND_DIST``), 1 m behind
+the box on the other lane, the one the box leaves clear. Cars whose episode ended are parked off the
 track. ``RaceCore`` (``h2h_racing.core``) mixes ``CorePenalties`` in.
 """
 
@@ -12,7 +14,14 @@ import numpy as np
 import numpy.typing as npt
 
 from h2h_racing import spawn
-from h2h_racing.replacement import REPLACE_GAP, REPLACE_STEP, REPLACE_TRIES, place_kernel
+from h2h_racing.replacement import (
+    OBSTACLE_APPROACH,
+    REPLACE_GAP,
+    REPLACE_STEP,
+    REPLACE_TRIES,
+    RESET_BEHIND_OBSTACLE,
+    place_kernel,
+)
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -24,8 +33,11 @@ class CorePenalties:
 
     def _infractions(self, infraction: BoolArray, off_track: BoolArray, crash: BoolArray,
                      reversed_: BoolArray, immobilised: BoolArray,
-                     prev_distance: FloatArray) -> BoolArray:
-        """Apply the rules' consequence of each infraction; return the penalised cars."""
+                     prev_distance: FloatArray,
+                     obstacle_hits: list[tuple[int, int, int]]) -> BoolArray:
+        """Apply the rules' consequence of each infraction; return the penalised cars.
+
+        ``obstacle_hits`` are this step's ``(env, car, obstacle)`` contacts with a box."""
         rules = self.rules
         self.reverse_count *= ~infraction
         self.immobile_count *= ~infraction
@@ -48,11 +60,23 @@ class CorePenalties:
         back = off_track | reversed_ | immobilised
         self.replace_distance = np.where(
             infraction, np.where(back, prev_distance, self.distance), self.replace_distance)
+        self.replace_lane[infraction] = 0.0
+        # A crash into a box: RESET_BEHIND_OBSTACLE behind the box, on the lane it leaves
+        # clear (DeepRacer). A few contacts per step at most: this loop is over contact events.
+        for env, car, k in obstacle_hits:
+            if crash[env, car] and infraction[env, car]:
+                ahead = self.obstacle_s[env, k] - self.s[env, car]
+                ahead -= self.track.length * np.round(ahead / self.track.length)
+                self.replace_distance[env, car] = (self.distance[env, car] + ahead
+                                                   - RESET_BEHIND_OBSTACLE)
+                # The box's side of the centre line (0 for a box on it: the nearest lane).
+                self.replace_lane[env, car] = -np.sign(self.obstacle_d[env, k])
         return infraction.copy()
 
     def _replace(self, mask: BoolArray) -> BoolArray:
-        """Put frozen cars back on the nearest lane at their re-placement distance, on the
-        first candidate spot clear of every other body (``h2h_racing.replacement``).
+        """Put frozen cars back at their re-placement distance, on their re-placement lane
+        (or the nearest one), on the first candidate spot clear of every other body
+        (``h2h_racing.replacement``).
 
         A car with no clear spot stays frozen for one more step (the clock runs), parked off
         the track (``waiting``), and is tried again then. Returns the cars placed, (E, N).
@@ -60,9 +84,13 @@ class CorePenalties:
         track, cfg = self.track, self.config
         env_idx, car_idx = np.nonzero(mask)
         target = self.replace_distance[env_idx, car_idx]
-        lane = np.where(self.d[env_idx, car_idx] >= 0.0, 1.0, -1.0)
+        chosen = self.replace_lane[env_idx, car_idx]
+        lane = np.where(chosen != 0.0, chosen,
+                        np.where(self.d[env_idx, car_idx] >= 0.0, 1.0, -1.0))
+        # After a box: up the clear lane towards the box first (OBSTACLE_APPROACH).
+        forward = np.where(chosen != 0.0, OBSTACLE_APPROACH, 0.0)
         cand_dist, cand_lane = spawn.replacement_candidates(track, target, lane, REPLACE_STEP,
-                                                            REPLACE_TRIES)
+                                                            REPLACE_TRIES, forward)
         cand_s = np.mod(cand_dist, track.length)
         cand_d = spawn.lane_offset(track, cand_s, cand_lane)
         cand_pos = track.point_at(cand_s, cand_d)

@@ -80,7 +80,8 @@ class CoreSpawn:
                      "immobile_count", "off_tracks", "crashes", "collisions", "overtakes",
                      "overtaken", "defences"):
             getattr(self, name)[mask] = 0
-        for name in ("lap_start_time", "penalty_time", "frozen_until", "replace_distance"):
+        for name in ("lap_start_time", "penalty_time", "frozen_until", "replace_distance",
+                     "replace_lane"):
             getattr(self, name)[mask] = 0.0
         for name in ("last_lap_time", "best_lap_time", "finish_time"):
             getattr(self, name)[mask] = np.inf

@@ -92,6 +92,9 @@ class CoreState:
         ``final_position`` and ``final_yaw`` hold its last pose on the track, (E, N)."""
         self.replace_distance = zeros((e, n))
         """Race distance at which a penalised car is put back, (E, N), metres."""
+        self.replace_lane = zeros((e, n))
+        """Lane a penalised car is put back on first, (E, N): +1 left, -1 right, 0 the lane
+        nearest to where it stopped."""
         self.done = self._field("done")
         """The car's episode is over (finished, retired or truncated); it is parked."""
         self.finished = self._field("finished")

@@ -1,4 +1,4 @@
-"""# h2h_racing_v2: head-to-head racing of 1/18-scale cars
+"""# h2h_racing_v3: head-to-head racing of 1/18-scale cars
 
 | | |
 |---|---|
@@ -29,8 +29,9 @@ as on the real car. Finite values outside [-1, 1] are clipped; NaN or inf raise
 `sensors=("state",)` (default): a normalised state vector per car (see
 `h2h_racing.sensors.state` for the exact layout): speed, sideslip, yaw rate, steering,
 lateral offset, heading error, curvature look-ahead up to 5 m, track half-widths, race
-position, penalty flag, and for the nearest opponents and obstacles ahead their
-track-relative gap, lateral offset and relative speed. Bot cars are opponents here: the
+position, penalty flag, and for the nearest opponents their track-relative gap, lateral
+offset and relative speed, and for the nearest obstacles from 0.5 m behind to 5 m ahead
+(so a box beside the car stays in view until the car is past it) their gap and offset. Bot cars are opponents here: the
 `opponent_slots` take the nearest of the other cars and the bots alike (a bot moves, so it
 needs the speed feature the obstacle slots lack), so a learner in `head_to_bot` sees them
 without extra slots; raise `opponent_slots` with many bots.
@@ -178,6 +179,11 @@ but not bit-for-bit. Scripted drivers (``h2h_racing.policies``) read the true st
 ``env.core`` (the batched core behind the env, E = 1).
 
 ## Version history
+- v3: the state observation's obstacle slots keep a box until its centre is 0.5 m behind the
+  car's (it was dropped once it was behind the car's centre, while the car was still beside
+  it), so their arc gap can be negative down to -0.1; race rules put a car that crashed into
+  a box back 1 m behind it on the other lane (DeepRacer's `RESET_BEHIND_DIST`), not on the
+  lane nearest to where it stopped. Configurations without obstacles behave exactly as in v2.
 - v2: flat, fixed infos (`reward_<term>` keys instead of the `reward_terms` dict, lap times
   -1.0 instead of inf before the first lap, a `parked` flag, no `lap_times` list: those and
   `deepracer_params` with `info_level="full"`); actions for cars that have left the race are
@@ -256,7 +262,7 @@ class RacingEnv(EnvActions, EnvRewards, ParallelEnv):
     """
 
     metadata = {
-        "name": "h2h_racing_v2",
+        "name": "h2h_racing_v3",
         "render_modes": ["rgb_array"],
         "render_fps": 15,
         "is_parallelizable": True,

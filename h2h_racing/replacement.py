@@ -28,6 +28,15 @@ REPLACE_STEP = 0.5
 REPLACE_TRIES = 8
 """Candidate distances (each on the car's lane, then the other): up to 3.5 m back, room to get
 behind two boxes a metre apart on a narrow track (where a box closes both lanes)."""
+RESET_BEHIND_OBSTACLE = 1.0
+"""After a crash into a box the car is put back this far behind it, on the other lane:
+DeepRacer's ``RESET_BEHIND_DIST`` [m]."""
+OBSTACLE_APPROACH = 0.75
+"""Where another body takes that spot, the next candidates move up the clear lane towards
+the box, in steps of 0.25 m up to this far (its centre 0.25 m behind the box's, beside it),
+before the usual ones step back on either lane [m]: a car put back 1 m behind the box in
+the box's own lane (a second box on the clear lane just behind) cannot steer round it from
+a standstill, and hits it again at every reset."""
 REPLACE_GAP = 0.07
 """Room a re-placed car keeps round its box to every other body [m]: more than a bot travels
 in one step at its default 0.75 m/s (0.05 m), so a bot behind does not touch it before it can

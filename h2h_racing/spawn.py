@@ -171,17 +171,27 @@ def bot_layout(length: float, rng: np.random.Generator, num_envs: int, count: in
 
 
 def replacement_candidates(track: Track, s: FloatArray, lane: FloatArray,
-                           step_back: float, tries: int) -> tuple[FloatArray, FloatArray]:
+                           step_back: float, tries: int, forward: FloatArray | None = None,
+                           forward_step: float = 0.25,
+                           ) -> tuple[FloatArray, FloatArray]:
     """Candidate re-placement arc positions and lanes for each car, in order of preference.
 
     Candidate ``2t`` is ``t * step_back`` metres behind ``s`` on ``lane``, candidate
-    ``2t + 1`` the same on the other lane.
+    ``2t + 1`` the same on the other lane. With ``forward`` (R,), candidates ``forward_step``,
+    ``2 forward_step``, ... up to ``forward`` metres ahead of ``s`` on ``lane`` come right
+    after the first (rows with a shorter or no reach repeat their last spot).
 
     Returns:
-        ``(s (R, 2 * tries), lane (R, 2 * tries))``.
+        ``(s (R, C), lane (R, C))``: C = 2 * tries, plus the forward candidates.
     """
     back = np.repeat(np.arange(tries, dtype=np.float64) * step_back, 2)
     flip = np.tile(np.array([1.0, -1.0]), tries)
     cand_s = s[:, None] - back[None, :]
     cand_lane = lane[:, None] * flip[None, :]
+    if forward is not None and len(s):
+        reach = int(np.ceil(forward.max() / forward_step - 1e-9))
+        ahead = np.minimum(np.arange(1, reach + 1) * forward_step, forward[:, None])
+        cand_s = np.concatenate([cand_s[:, :1], s[:, None] + ahead, cand_s[:, 1:]], axis=1)
+        cand_lane = np.concatenate([cand_lane[:, :1], np.repeat(lane[:, None], reach, axis=1),
+                                    cand_lane[:, 1:]], axis=1)
     return cand_s, cand_lane

@@ -22,9 +22,9 @@ the other cars and the bot cars compete for the slots alike):
 +1          arc gap to it, ahead positive                                 / 5 m
 +2          its lateral offset minus ours                                 / 1 m
 +3          its forward speed minus ours                                  / max speed
-then per obstacle slot (nearest ahead within 5 m first, ``obstacle_slots``):
+then per obstacle slot (nearest first from 0.5 m behind to 5 m ahead, ``obstacle_slots``):
 +0          present (1) or empty slot (0)                                 -
-+1          arc distance ahead                                            / 5 m
++1          arc distance ahead (negative: beside or just behind)          / 5 m
 +2          its lateral offset minus ours                                 / 1 m
 ==========  ============================================================  =================
 
@@ -52,6 +52,10 @@ LOOKAHEAD = np.array([0.0, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0])
 """Distances ahead at which the centre-line curvature is observed [m]."""
 SENSE_RANGE = 5.0
 """Opponents and obstacles are described within this arc distance [m]."""
+OBSTACLE_BEHIND = 0.5
+"""Obstacles stay in the obstacle slots until this far behind the car's centre [m]: a box
+(0.5 m long) is past a car (0.32 m) once its centre is 0.41 m behind the car's, and a car
+that steered round it must know it is beside it until then, or it steers back into it."""
 BASE_FEATURES = 19
 OPPONENT_FEATURES = 4
 OBSTACLE_FEATURES = 3
@@ -172,12 +176,13 @@ def _state_kernel(car_vectors, car_floats, car_counts, racing, car_flags, obstac
                 row[base + 2] = _clip(other_d - di)
                 row[base + 3] = _clip((other_v - speed[e, i]) * inv_v)
             col += 4 * m_slots
-            # Obstacles: the k_slots nearest ahead within SENSE_RANGE.
+            # Obstacles: the k_slots nearest from OBSTACLE_BEHIND behind to SENSE_RANGE
+            # ahead (a = arc distance from the back of that window, in [0, L)).
             for k in range(num_obstacles):
-                a = obstacle_s[e, k] - si
+                a = obstacle_s[e, k] - si + OBSTACLE_BEHIND
                 a = a - length * math.floor(a / length)
-                ahead[k] = a if a <= SENSE_RANGE else np.inf
-                ahead_distance[k] = a
+                ahead[k] = a if a <= SENSE_RANGE + OBSTACLE_BEHIND else np.inf
+                ahead_distance[k] = a - OBSTACLE_BEHIND
             for slot in range(k_slots):
                 base = col + 3 * slot
                 best = _take_nearest(ahead[:num_obstacles])

@@ -264,6 +264,62 @@ class TestPenalties:
         assert first > second
 
 
+class TestReplacementAfterABox:
+    """A crash into a box puts the car back 1 m behind the box on the other lane (DeepRacer's
+    ``RESET_BEHIND_DIST``), or, where that spot is taken, on the box's lane."""
+
+    BOX_FRACTION = 0.25  # of the lap: s = 0.25 L = 4.71234 m, on the left lane (d = +0.25 m)
+
+    def _crash(self, extra_boxes: tuple[tuple[float, int], ...] = ()) -> RaceCore:
+        cfg = EnvConfig(track=TRACK.name, num_cars=1, grid="fixed",
+                        num_obstacles=1 + len(extra_boxes),
+                        obstacle_positions=((self.BOX_FRACTION, 1), *extra_boxes),
+                        rules=RaceRules(crash_penalty=1.0))
+        core = RaceCore(cfg, TRACK, num_envs=1)
+        core.reset(seed=0)
+        # On the box's lane, 0.6 m behind it, heading along the track: the car (0.32 m long)
+        # and the box (0.5 m) touch once the gap between centres is under 0.41 m.
+        s0 = self.BOX_FRACTION * L - 0.6
+        core.position[0, 0] = TRACK.point_at(np.array([s0]), np.array([0.25]))[0]
+        core.yaw[0, 0] = TRACK.heading_at(np.array([s0]))[0]
+        core._sync_physics()
+        for _ in range(30):
+            if command(core, circle_steer(core, 1.0, R - 0.25), 1.0).penalised[0, 0]:
+                break
+        assert core.crashes[0, 0] == 1, "the car never hit the box"
+        for _ in range(30):  # 1 s penalty = 15 steps
+            if command(core, 0.0, 0.0).replaced[0, 0]:
+                return core
+        raise AssertionError("the car was never put back")
+
+    def test_one_metre_behind_the_box_on_the_other_lane(self) -> None:
+        core = self._crash()
+        # The lap started at distance 0 = s 0, so the box is at distance 0.25 L; the car goes
+        # back to 0.25 L - 1 m = 3.71234 m, on the right lane (d = -0.5 / 2 = -0.25 m).
+        assert core.distance[0, 0] == pytest.approx(0.25 * L - 1.0, abs=1e-9)
+        assert core.d[0, 0] == pytest.approx(-0.25, abs=1e-9)
+        assert core.resets[0, 0] == 1
+
+    def test_up_the_clear_lane_when_a_second_box_is_one_metre_behind(self) -> None:
+        # A second box on the right lane at 0.25 L - 1 m covers -1.25 .. -0.75 m. The car's
+        # box grown by 7 cm reaches 0.16 + 0.07 = 0.23 m either way along the lane: the spot
+        # 0.25 m nearer the hit box (-0.98 .. -0.52 m) overlaps it, 0.5 m nearer (-0.73 ..
+        # -0.27 m) is clear. So: right lane, 0.5 m behind the hit box.
+        core = self._crash(extra_boxes=((0.25 - 1.0 / L, -1),))
+        assert core.distance[0, 0] == pytest.approx(0.25 * L - 0.5, abs=1e-9)
+        assert core.d[0, 0] == pytest.approx(-0.25, abs=1e-9)
+
+    def test_the_box_lane_when_the_clear_lane_is_taken_all_the_way_up(self) -> None:
+        # The second box at 0.25 L - 0.6 m on the right lane covers -0.85 .. -0.35 m: every
+        # spot up the right lane (-1.0, -0.75, -0.5, -0.25 m, each +-0.23 m) overlaps it. The
+        # next candidate is 1 m behind the hit box on its own lane (the left), clear of both
+        # (0.77 m to the hit box's back at -0.25 m is more than 0.23 m; the lanes are 0.5 m
+        # apart, more than 0.098 + 0.07 + 0.2 = 0.37 m).
+        core = self._crash(extra_boxes=((0.25 - 0.6 / L, -1),))
+        assert core.distance[0, 0] == pytest.approx(0.25 * L - 1.0, abs=1e-9)
+        assert core.d[0, 0] == pytest.approx(0.25, abs=1e-9)
+
+
 class TestCrashJudging:
     """Car-car contacts: the car behind is at fault; obstacles: the car is at fault."""
 
