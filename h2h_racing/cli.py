@@ -5,7 +5,7 @@
                     [--save race.rrd] [--spawn] [--serve [--serve-seconds N]]
     h2h-racing camera [--track speedway] [--car 1] [--steps 20] [--out camera.png]
     h2h-racing train --out runs/NAME [--config TRAIN.toml|NAME] [--track T]
-                     [--obs state|camera|camera_only]
+                     [--obs state|camera|camera_only|camera_lidar]
                      [--opponents none|D] [--rules training|race] [--reward TERM=W,...]
                      [--init P] [--max-std S] [--teacher P] [--eval-every 50]
                      [--race-type object_avoidance [--boxes 6] | head_to_bot [--bots 3]]

@@ -254,10 +254,13 @@ def add_training_commands(sub: argparse._SubParsersAction) -> None:
                        help="catalogue name, track file, random:<seed>, or 'procedural' (a new "
                             "random track every 10 iterations; a config's [procedural] table "
                             "sets them) (default: speedway)")
-    train.add_argument("--obs", default=None, choices=["state", "camera", "camera_only"],
-                       help="actor input: the state vector; camera + state vector; or camera + "
-                            "own speed and steering (camera_only, DeepRacer's setting) "
-                            "(default: state)")
+    train.add_argument("--obs", default=None,
+                       choices=["state", "camera", "camera_only", "camera_lidar"],
+                       help="actor input: the state vector; camera + state vector; camera + "
+                            "own speed and steering (camera_only, DeepRacer's camera setting); "
+                            "or camera + lidar (64 ranges over +-150 deg, up to 1 m, seeing cars "
+                            "and boxes) + own speed and steering (camera_lidar, DeepRacer's "
+                            "head-to-head sensors) (default: state)")
     train.add_argument("--rules", default=None, choices=["training", "race"],
                        help="training: an infraction ends the episode (DeepRacer's training); "
                             "race: a time penalty and the car goes on (default: training)")

@@ -1,10 +1,12 @@
 """Trained policies as drivers: load a ``policy.pt`` written by ``h2h_racing.training``.
 
 A policy file holds the actor's weights and the env and observation config it was trained
-with. It loads weights-only (``h2h_racing.policies.weights``: no pickled code runs) and its
-keys are checked. The driver checks that the env it drives gives the same observation layout
-as training did, and that the weights fit the actor, and raises a clear ``ValueError`` when
-they do not.
+with, among them the settings of the camera and the lidar its actor reads (``env_config``'s
+``camera`` and ``lidar``: the driver renders both itself, as in training). It loads
+weights-only (``h2h_racing.policies.weights``: no pickled code runs) and its keys and sensor
+settings are checked. The driver checks that the env it drives gives the same observation
+layout as training did, and that the weights fit the actor, and raises a clear ``ValueError``
+when they do not.
 """
 
 from __future__ import annotations
@@ -34,6 +36,12 @@ _PAYLOAD_KEYS: dict[str, type | tuple[type, ...]] = {
 """Keys a policy dict must hold, with their types (``train_config`` and ``training`` are
 informative)."""
 _ACTOR_CLASSES = ("MLPModel", "CNNModel")
+_SENSOR_GROUPS = ("camera", "lidar")
+"""Observation groups the driver renders with its own sensor, whose settings the policy file
+holds in ``env_config[group]`` (a ``CameraConfig`` or ``LidarConfig`` dict)."""
+LIDAR_NOISE_SEED = 0
+"""Seed of a noisy lidar's generator, made afresh at every ``reset``, so that a policy trained
+with ``LidarConfig.noise_std > 0`` drives the same race the same way."""
 
 
 def shipped_policies() -> dict[str, Path]:
@@ -68,15 +76,38 @@ def _checked(payload: Any, source: str) -> dict[str, Any]:
                                f"{POLICY_FORMAT!r}, got {found!r})")
     check_keys(payload, _PAYLOAD_KEYS, source, _EXPECTED)
     env_keys: dict[str, type] = dict.fromkeys(_OBSERVATION_KEYS, int)
-    if payload["observations"] in ("camera", "camera_only"):
-        env_keys["camera"] = dict
+    sensors = _sensors(payload)
+    env_keys.update(dict.fromkeys(sensors, dict))
     check_keys(payload["env_config"], env_keys, f"{source}: env_config",
                "the env config the policy was trained with")
+    for group in sensors:
+        _sensor_config(payload, group, source)
     if payload["actor_cfg"].get("class_name") not in _ACTOR_CLASSES:
         raise WeightsFileError(f"{source}: actor_cfg's class_name is "
                                f"{payload['actor_cfg'].get('class_name')!r}, expected one of "
                                f"{_ACTOR_CLASSES}")
     return payload
+
+
+def _sensors(payload: dict[str, Any]) -> list[str]:
+    """The sensor groups the policy's actor reads (``camera``, ``lidar``), which the driver
+    renders itself."""
+    return [group for group in _SENSOR_GROUPS if group in payload["obs_groups"]]
+
+
+def _sensor_config(payload: dict[str, Any], group: str, source: str) -> Any:
+    """The ``CameraConfig`` or ``LidarConfig`` the policy was trained with, from its
+    ``env_config[group]``, or a ``WeightsFileError`` naming ``source`` and the bad setting."""
+    from h2h_racing.config import CameraConfig, LidarConfig
+
+    kind = {"camera": CameraConfig, "lidar": LidarConfig}[group]
+    try:
+        return kind(**payload["env_config"][group])
+    except (TypeError, ValueError) as error:
+        raise WeightsFileError(
+            f"{source}: env_config[{group!r}] is not a valid {kind.__name__} ({error}); "
+            f"expected the {group} settings the policy was trained with, as `h2h-racing "
+            f"train` saves them: retrain or re-save the policy") from None
 
 
 class TrainedPolicy:
@@ -120,6 +151,8 @@ class TrainedPolicy:
         self.env_config: dict[str, Any] = payload["env_config"]
         self._actor: Any = None
         self._camera: Any = None
+        self._lidar: Any = None
+        self._lidar_rng: np.random.Generator | None = None
 
     def reset(self, core: RaceCore) -> None:
         """Check that ``core`` gives the observations this policy was trained on."""
@@ -130,14 +163,21 @@ class TrainedPolicy:
                 raise ValueError(
                     f"{self.source}: trained with {key}={trained[key]}, but the env has "
                     f"{key}={getattr(cfg, key)}; build the env with {key}={trained[key]}")
-        if self.observations in ("camera", "camera_only"):
-            # The policy renders its own camera with the settings it was trained with, so it
-            # drives in any env (the env's own camera, if any, is for its observations).
-            from h2h_racing.config import CameraConfig
+        # The policy renders its own camera and lidar with the settings it was trained with,
+        # so it drives in any env (the env's own sensors, if any, are for its observations).
+        sensors = _sensors(self.payload)
+        obstacle_size = (cfg.obstacle_length, cfg.obstacle_width)
+        if "camera" in sensors:
             from h2h_racing.sensors.camera import CameraSensor
 
-            self._camera = CameraSensor(CameraConfig(**trained["camera"]), core.track, cfg.car,
-                                        (cfg.obstacle_length, cfg.obstacle_width))
+            self._camera = CameraSensor(_sensor_config(self.payload, "camera", self.source),
+                                        core.track, cfg.car, obstacle_size)
+        if "lidar" in sensors:
+            from h2h_racing.sensors.lidar import LidarSensor
+
+            self._lidar = LidarSensor(_sensor_config(self.payload, "lidar", self.source),
+                                      cfg.car, obstacle_size)
+            self._lidar_rng = np.random.default_rng(LIDAR_NOISE_SEED)
         if self._actor is None:
             self._actor = self._build_actor(core)
 
@@ -179,6 +219,9 @@ class TrainedPolicy:
         if self._camera is not None:
             frames = self._camera.observe(core)[:, car]
             groups["camera"] = (frames.transpose(0, 3, 1, 2).astype(np.float32) / 255.0)
+        if self._lidar is not None:
+            groups["lidar"] = np.ascontiguousarray(
+                self._lidar.observe(core, self._lidar_rng)[:, car])
         return groups
 
     def act(self, core: RaceCore, car: int) -> npt.NDArray[np.float32]:

@@ -23,7 +23,7 @@ from h2h_racing.training.race_settings import RaceSettings
 from h2h_racing.training.teachers import load_teacher
 from h2h_racing.training.toml_types import build_tables, read_toml
 from h2h_racing.training.tracks import ProceduralTracks
-from h2h_racing.training.vec_env import OBSERVATIONS, PoolOpponent, RacingVecEnv
+from h2h_racing.training.vec_env import ACTOR_GROUPS, OBSERVATIONS, PoolOpponent, RacingVecEnv
 
 STD_FLOOR = 1e-6
 """Smallest policy standard deviation (rsl-rl's own floor) when ``TrainConfig.max_std`` is set."""
@@ -132,10 +132,13 @@ class TrainConfig:
     procedural: ProceduralTracks = field(default_factory=ProceduralTracks)
     """``[procedural]``: the random tracks of ``track="procedural"`` runs and how often they
     change."""
-    observations: Literal["state", "camera", "camera_only"] = "state"
-    """Actor input: the state vector; the camera plus the state vector; or the camera plus the
-    car's own speed and steering angle (``camera_only``: DeepRacer's setting, no track geometry
-    and no other car's state). The critic always gets the privileged state."""
+    observations: Literal["state", "camera", "camera_only", "camera_lidar"] = "state"
+    """Actor input: the state vector; the camera plus the state vector; the camera plus the
+    car's own speed and steering angle (``camera_only``: DeepRacer's camera setting, no track
+    geometry and no other car's state); or the camera, the lidar (the env config's
+    ``LidarConfig``, DeepRacer's by default: 64 ranges over +-150 deg up to 1.0 m, seeing cars
+    and boxes) and the car's own speed and steering angle (``camera_lidar``: DeepRacer's
+    head-to-head sensor set). The critic always gets the privileged state."""
     num_cars: int = 1
     """Cars per env copy."""
     opponent: str | None = None
@@ -234,9 +237,9 @@ class TrainConfig:
         teacher = self.imitation.teacher
         if teacher is not None and self.observations == "state" and not self.scripted_teacher:
             raise ValueError("[imitation] teacher distils a state policy into a camera policy: "
-                             "set observations to 'camera_only' or 'camera' (a state student "
-                             "of a state teacher would only copy it), or imitate a scripted "
-                             f"driver ({', '.join(SCRIPTED_TEACHERS)})")
+                             "set observations to 'camera_only', 'camera_lidar' or 'camera' (a "
+                             "state student of a state teacher would only copy it), or imitate a "
+                             f"scripted driver ({', '.join(SCRIPTED_TEACHERS)})")
         if not isinstance(self.race, RaceSettings):
             raise ValueError(f"TrainConfig.race must be a RaceSettings, got {self.race!r}")
         if "head_to_head" in (self.race.race_type, *self.race.race_types) and self.num_cars < 2:
@@ -316,7 +319,9 @@ class TrainConfig:
         """The env the learners race in: ``rules`` (DeepRacer's training rules by default: an
         infraction ends the car's episode), one lap per episode (``track`` names the first
         track; a procedural run starts on ``speedway`` and moves to random tracks), ``race``'s
-        race type, boxes and bots."""
+        race type, boxes and bots, a ``camera_size`` camera (read by every mode but ``state``)
+        and DeepRacer's default lidar (``LidarConfig()``, read by ``camera_lidar``; the VecEnv
+        builds both sensors from these settings, so ``sensors`` stays the state vector)."""
         race_type = self.race.resolved_type(self.num_cars)
         camera = dataclasses.replace(EnvConfig().camera, width=self.camera_size[0],
                                      height=self.camera_size[1])
@@ -340,12 +345,11 @@ class TrainConfig:
 
     def actor_groups(self) -> list[str]:
         """Observation groups the actor reads (see ``h2h_racing.training.vec_env``)."""
-        return {"state": ["policy"], "camera": ["policy", "camera"],
-                "camera_only": ["camera", "motion"]}[self.observations]
+        return list(ACTOR_GROUPS[self.observations])
 
     def actor_dict(self) -> dict[str, Any]:
         """rsl-rl config of the actor (the student when distilling): an MLP on the state, a CNN
-        (then an MLP) with a camera."""
+        (then an MLP, which also reads the vector groups: lidar, motion) with a camera."""
         camera = self.observations != "state"
         distilling = self.imitation.teacher is not None
         init_std = self.distill.student_std if distilling else self.init_std
@@ -388,6 +392,8 @@ class TrainConfig:
         # The critic reads the privileged state; with the camera and the state vector it also
         # gets the camera (as first built). A camera-only actor's critic needs no CNN: the
         # privileged state holds what the value depends on, at a fraction of the update cost.
+        # So does a camera-and-lidar actor's: the privileged state already places the other
+        # cars and the nearest boxes, which is all its lidar sees.
         critic: dict[str, Any] = {"class_name": "MLPModel",
                                   "hidden_dims": list(self.hidden_dims), "obs_normalization": True}
         critic_groups = ["critic"]

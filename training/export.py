@@ -17,10 +17,13 @@ writes into ``out``:
 The exported function is the driver's: the deterministic action (the Gaussian's mean),
 clipped to [-1, 1], i.e. ``[steer, speed]`` in the env's continuous action space. ``obs`` is
 the concatenation of the actor's vector groups: ``policy`` is the state observation
-(``h2h_racing.sensors.state``, F = 19 + 4 x opponent_slots + 3 x obstacle_slots), ``motion``
-its entries ``MOTION_FEATURES`` (own speed and steering, for camera-only policies). ``camera``
-is the car's camera with the policy's own camera settings, uint8 (H, W, C) transposed to
-(C, H, W) and divided by 255. The observation normaliser is inside the export.
+(``h2h_racing.sensors.state``, F = 19 + 4 x opponent_slots + 3 x obstacle_slots), ``lidar``
+the car's lidar ranges with the policy's own lidar settings (``env_config["lidar"]``, for
+``camera_lidar`` policies), ``motion`` the state's entries ``MOTION_FEATURES`` (own speed and
+steering, for ``camera_only`` and ``camera_lidar`` policies), in the actor's group order (the
+sidecar lists it). ``camera`` is the car's camera with the policy's own camera settings,
+uint8 (H, W, C) transposed to (C, H, W) and divided by 255. The observation normaliser is
+inside the export.
 
 Every export is checked before it is reported: it is loaded back (ONNX with onnxruntime, or
 onnx's reference evaluator when onnxruntime is not installed; TorchScript with
@@ -265,6 +268,8 @@ def _describe_inputs(driver: Any, names: list[str],
                      observations: dict[str, npt.NDArray[np.float32]]) -> list[dict[str, Any]]:
     actor = driver._actor
     meaning = {"policy": "the state observation (h2h_racing.sensors.state)",
+               "lidar": "the car's lidar ranges [m] (env_config['lidar'] settings, "
+                        "h2h_racing.sensors.lidar)",
                "motion": "state observation entries MOTION_FEATURES (own speed, steering)"}
     groups = " + ".join(f"{g} ({meaning.get(g, g)})" for g in actor.obs_groups)
     inputs = [{"name": "obs", "shape": ["batch", int(observations["obs"].shape[1])],

@@ -20,12 +20,19 @@ Observation groups (a ``TensorDict`` with batch size ``num_envs * learners``):
 - ``critic``: privileged state for an asymmetric critic, (B, F + 4 (N - 1)): the state vector and,
   for every other car in car order, its arc gap (wrapped, / 5 m), lateral offset, forward speed
   (/ 4 m/s) and heading error, whatever its distance;
-- ``camera`` (with ``observations="camera"`` or ``"camera_only"``): the learner's camera as
+- ``camera`` (with every ``observations`` but ``"state"``): the learner's camera as
   (B, C, H, W) float32 in [0, 1], ready for rsl-rl's ``CNNModel``;
-- ``motion`` (with ``observations="camera_only"``): the learner's own forward speed and steering
-  angle, (B, 2) float32 (state features 0 and 3, ``MOTION_FEATURES``). A camera-only actor
-  reads ``camera`` and ``motion``: no track geometry and no other car's state, as DeepRacer's
-  camera models (which get the image alone) plus the car's odometry;
+- ``motion`` (with ``observations="camera_only"`` or ``"camera_lidar"``): the learner's own
+  forward speed and steering angle, (B, 2) float32 (state features 0 and 3,
+  ``MOTION_FEATURES``). A camera-only actor reads ``camera`` and ``motion``: no track geometry
+  and no other car's state, as DeepRacer's camera models (which get the image alone) plus the
+  car's odometry;
+- ``lidar`` (with ``observations="camera_lidar"``): the learner's lidar (``config.lidar``,
+  ``h2h_racing.sensors.lidar``; DeepRacer's by default: 64 ranges over +-150 deg, clipped to
+  [0.15, 1.0] m, a beam that hits nothing reads 1.0), (B, beams) float32, or (B, sectors)
+  with ``mode="sector_lidar"``. It sees the other cars, the boxes and the bot cars, not the
+  track's borders. A ``camera_lidar`` actor reads ``camera``, ``lidar`` and ``motion``:
+  DeepRacer's head-to-head sensor set (front camera and lidar) plus the car's odometry;
 - ``expert`` (with ``expert``): the action a scripted driver would take in the learner's place,
   (B, 2) float32 in [-1, 1], computed from the same state as the other groups. It is the label
   of imitation learning (``h2h_racing.training.teachers.ScriptedTeacher``): the learner drives, the
@@ -85,13 +92,20 @@ from h2h_racing.core import RaceCore  # noqa: E402
 from h2h_racing.deepracer.metadata import nearest_discrete  # noqa: E402
 from h2h_racing.race import TIME_EPS  # noqa: E402
 from h2h_racing.sensors.camera import CameraSensor  # noqa: E402
+from h2h_racing.sensors.lidar import LidarSensor  # noqa: E402
 from h2h_racing.sensors.state import MOTION_FEATURES, state_observation  # noqa: E402
 from h2h_racing.track import Track  # noqa: E402
 from h2h_racing.track_io import load_track  # noqa: E402
 
-OBSERVATIONS = ("state", "camera", "camera_only")
-"""What the actor can be given: the state vector; the camera and the state vector; the camera
-and the car's own motion (``motion`` group)."""
+ACTOR_GROUPS: dict[str, tuple[str, ...]] = {
+    "state": ("policy",), "camera": ("policy", "camera"), "camera_only": ("camera", "motion"),
+    "camera_lidar": ("camera", "lidar", "motion")}
+"""Observation groups the actor of each ``observations`` mode reads: the state vector; the
+camera and the state vector; the camera and the car's own motion; the camera, the lidar and
+the car's own motion. The VecEnv builds the groups of its mode (and always ``policy`` and
+``critic``)."""
+OBSERVATIONS = tuple(ACTOR_GROUPS)
+"""What the actor can be given (the keys of ``ACTOR_GROUPS``)."""
 
 BOX_CLEAR_BEHIND = 0.6
 """A box whose centre is less than this behind a car's centre at its start blocks that start
@@ -116,9 +130,12 @@ class RacingVecEnv(VecEnv):
             with parameter sharing).
         opponent: Driver of the other cars: a ``h2h_racing.policies`` driver name, an object
             with ``reset(core)`` and ``act(core, car)``, or None when every car is a learner.
-        observations: ``"state"``, ``"camera"`` (adds the ``camera`` group) or
-            ``"camera_only"`` (adds the ``camera`` and ``motion`` groups); see ``OBSERVATIONS``.
-        seed: Seed of the core's random generator.
+        observations: ``"state"``, ``"camera"`` (adds the ``camera`` group),
+            ``"camera_only"`` (adds the ``camera`` and ``motion`` groups) or
+            ``"camera_lidar"`` (adds ``camera``, ``lidar`` and ``motion``); see
+            ``ACTOR_GROUPS``.
+        seed: Seed of the core's random generator, and (spawned from it) of the lidar's noise
+            when ``config.lidar.noise_std > 0``.
         device: Torch device of the returned tensors.
         track: A ``Track`` to use instead of loading ``config.track``.
         random_starts: Start each episode at a random point of the lap (drawn from the core's
@@ -146,7 +163,8 @@ class RacingVecEnv(VecEnv):
 
     def __init__(self, config: EnvConfig, num_envs: int, learners: int | None = None,
                  opponent: str | Any | None = None,
-                 observations: Literal["state", "camera", "camera_only"] = "state", seed: int = 0,
+                 observations: Literal["state", "camera", "camera_only",
+                                       "camera_lidar"] = "state", seed: int = 0,
                  device: str = "cpu", track: Track | None = None,
                  random_starts: bool = True, reward_function: str | None = None,
                  simtrace: str | None = None, simtrace_envs: int = 2,
@@ -185,7 +203,13 @@ class RacingVecEnv(VecEnv):
         self._weights = rewards.weights_of(config.reward)
         self._camera = (CameraSensor(config.camera, self.track, config.car,
                                      (config.obstacle_length, config.obstacle_width))
-                        if observations != "state" else None)
+                        if "camera" in ACTOR_GROUPS[observations] else None)
+        self._lidar = (LidarSensor(config.lidar, config.car,
+                                   (config.obstacle_length, config.obstacle_width))
+                       if "lidar" in ACTOR_GROUPS[observations] else None)
+        # The lidar's noise has a generator of its own (spawned from the seed, as the env's
+        # is seeded from its own), so that turning noise on leaves the race's draws unchanged.
+        self._lidar_rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0])
         if isinstance(opponent, str):
             from h2h_racing.policies import make_driver
 
@@ -416,7 +440,10 @@ class RacingVecEnv(VecEnv):
             frames = self._camera.observe(core)[:, :learners]
             frames = frames.reshape(e * learners, *frames.shape[2:]).transpose(0, 3, 1, 2)
             groups["camera"] = self._tensor(frames, torch.float32).div_(255.0)
-        if self.observation_kind == "camera_only":
+        if self._lidar is not None:
+            ranges = self._lidar.observe(core, self._lidar_rng)[:, :learners]
+            groups["lidar"] = self._tensor(ranges.reshape(e * learners, -1), torch.float32)
+        if "motion" in ACTOR_GROUPS[self.observation_kind]:
             groups["motion"] = self._tensor(policy[:, list(MOTION_FEATURES)], torch.float32)
         if self.expert is not None:
             # One batched call per learner car (over every copy), as the opponents are driven.

@@ -244,6 +244,44 @@ class TestBrokenPolicyFiles:
         with pytest.raises(WeightsFileError, match="class_name is 'Evil'"):
             TrainedPolicy(path)
 
+    def test_sensor_settings(self, tmp_path: Path) -> None:
+        # A camera_lidar policy renders its own camera and lidar from env_config["camera"] and
+        # env_config["lidar"]: both must be there and be valid settings, checked on loading.
+        # The shipped camera policy's file, relabelled as a camera_lidar one.
+        payload = torch.load(shipped_policies()["camera_speedway"], weights_only=True)
+        lidar = {**payload, "observations": "camera_lidar",
+                 "obs_groups": ["camera", "lidar", "motion"]}
+        settings = dict(payload["env_config"]["lidar"])
+        path = tmp_path / "lidar.pt"
+        torch.save(lidar, path)
+        assert TrainedPolicy(path).observations == "camera_lidar"
+        cases = {"no_lidar": ({k: v for k, v in payload["env_config"].items() if k != "lidar"},
+                              r"missing key\(s\) \['lidar'\]"),
+                 "lidar_list": ({**payload["env_config"], "lidar": [64]},
+                                "key 'lidar' holds a list, expected a dict"),
+                 "zero_beams": ({**payload["env_config"], "lidar": {**settings, "beams": 0}},
+                                r"env_config\['lidar'\] is not a valid LidarConfig "
+                                r"\(LidarConfig.beams must be an int in \[1, 4096\], got 0"),
+                 "unknown_key": ({**payload["env_config"], "lidar": {**settings, "range": 2.0}},
+                                 r"not a valid LidarConfig .*'range'.*expected the lidar "
+                                 r"settings the policy was trained with")}
+        for name, (env_config, message) in cases.items():
+            path = tmp_path / f"{name}.pt"
+            torch.save({**lidar, "env_config": env_config}, path)
+            with pytest.raises(WeightsFileError, match=message) as info:
+                TrainedPolicy(path)
+            assert str(path) in str(info.value)
+        # A camera policy's camera settings are checked the same way; it needs no lidar.
+        path = tmp_path / "camera_only.pt"
+        camera = {**payload["env_config"]["camera"], "width": -1}
+        torch.save({**payload, "env_config": {**payload["env_config"], "camera": camera}}, path)
+        with pytest.raises(WeightsFileError, match=r"env_config\['camera'\] is not a valid "
+                                                   r"CameraConfig \(CameraConfig.width"):
+            TrainedPolicy(path)
+        path = tmp_path / "camera_only_no_lidar.pt"
+        torch.save({**payload, "env_config": cases["no_lidar"][0]}, path)
+        assert TrainedPolicy(path).observations == "camera_only"
+
     def test_weights_of_the_wrong_size(self, tmp_path: Path) -> None:
         from h2h_racing.policies import race_core
 
