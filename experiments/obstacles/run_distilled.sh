@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# obstacle_generalist candidate (issue 22): seeds 0, 1, 2 of distilled.toml one after the
-# other (MINUTES of training each, 8 by default), each followed by its figures on the 7 shipped
+# obstacle_generalist candidate (issue 22): seeds 0, 1, 2 of CONFIG (distilled.toml by
+# default) one after the other (MINUTES of training each, 8 by default), each followed by its figures on the 7 shipped
 # tracks and the route files (evaluate_races.py: object-avoidance and head-to-bot races, seeds
 # 1-3, and the time-trial lap against ppo_generalist), run beside the next seed's training, so
 # that a cut-short series still has its first seeds.
@@ -13,6 +13,7 @@ cd "$(dirname "$0")/../.."
 . /work/main/.venv/bin/activate
 export GIT_PYTHON_REFRESH=quiet  # rsl-rl imports GitPython
 MINUTES="${MINUTES:-8}"
+CONFIG="${CONFIG:-experiments/obstacles/distilled.toml}"
 SEEDS="${SEEDS:-0 1 2}"
 # Extra flags for a quick check of the script, e.g. TRAIN_ARGS="--envs 16"
 # EVAL_ARGS="--tracks oval --routes none" MINUTES=0.1 SEEDS=0.
@@ -25,7 +26,7 @@ for s in $SEEDS; do
   run="$OUT/distilled-seed$s"
   echo "$(date -u +%H:%M:%S) training seed $s -> $run"
   # --minutes decides the length (--iterations only caps it).
-  h2h-racing train --config experiments/obstacles/distilled.toml \
+  h2h-racing train --config "$CONFIG" \
     --init "$OUT/init_generalist.pt" --minutes "$MINUTES" --iterations 100000 --seed "$s" \
     --no-onnx --no-progress --out "$run" $TRAIN_ARGS > "$run.log" 2>&1 \
     || { echo "seed $s failed: $run.log"; continue; }
