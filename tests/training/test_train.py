@@ -369,6 +369,22 @@ class TestShippedPolicies:
         # (policies/README.md), so 11 s is 1.28 x the racing line's.
         assert result.mean_lap_time < 11.0
 
+    def test_camera_racer_reads_deepracers_head_to_head_sensors_and_passes(self) -> None:
+        from h2h_racing.training.evaluate import head_to_head
+
+        payload = torch.load(shipped_policies()["camera_racer"], weights_only=True)
+        assert payload["observations"] == "camera_lidar"
+        assert list(payload["obs_groups"]) == ["camera", "lidar", "motion"]
+        camera, lidar = payload["env_config"]["camera"], payload["env_config"]["lidar"]
+        assert (camera["width"], camera["height"]) == (32, 24)
+        assert (lidar["beams"], lidar["fov_deg"], lidar["max_range"]) == (64, 300.0, 1.0)
+        # Its card: 10 of 10 races won from behind against pure_pursuit on speedway (seed 7),
+        # passing it, with no crash caused; 4 two-lap races from behind here.
+        result = head_to_head("camera_racer", "pure_pursuit", "speedway", races=4, laps=2,
+                              seed=7, start="behind")
+        assert result.wins_behind == 4
+        assert result.overtakes[0] >= 4 and result.crashes[0] == 0
+
     @pytest.mark.parametrize("track", list_tracks())
     def test_generalist_laps_every_shipped_track(self, track: str) -> None:
         from h2h_racing.training.evaluate import evaluate
