@@ -20,8 +20,8 @@ def test_shipped_league_configs_are_the_product_ones() -> None:
 
 def test_shipped_training_configs_are_named_by_policy_and_step() -> None:
     shipped = shipped_configs("train")
-    assert sorted(shipped) == ["ppo_generalist/finetune", "ppo_generalist/imitate",
-                               "racing_line_student/imitate"]
+    assert sorted(shipped) == ["camera_racer/imitate", "ppo_generalist/finetune",
+                               "ppo_generalist/imitate", "racing_line_student/imitate"]
     assert shipped["ppo_generalist/imitate"] == (
         REPO / "policies" / "trained" / "ppo_generalist" / "imitate.toml")
 
@@ -47,8 +47,9 @@ def test_unknown_names_list_the_shipped_ones() -> None:
                        r"shipped league config of that name; shipped: recommended, smoke"):
         resolve_config("finishing", "league")
     # A training config is not a league config, and the other way round.
-    with pytest.raises(FileNotFoundError, match="shipped: ppo_generalist/finetune, "
-                       "ppo_generalist/imitate, racing_line_student/imitate"):
+    with pytest.raises(FileNotFoundError, match="shipped: camera_racer/imitate, "
+                       "ppo_generalist/finetune, ppo_generalist/imitate, "
+                       "racing_line_student/imitate"):
         resolve_config("smoke", "train")
     with pytest.raises(ValueError, match="config kind must be one of"):
         shipped_configs("tournament")  # type: ignore[arg-type]
@@ -60,7 +61,8 @@ def test_the_cli_names_the_shipped_configs() -> None:
 
     with pytest.raises(SystemExit, match="shipped: recommended, smoke"):
         main(["league", "train", "--config", "no_such_league"])
-    with pytest.raises(SystemExit, match="shipped: ppo_generalist/finetune"):
+    with pytest.raises(SystemExit,
+                       match="shipped: camera_racer/imitate, ppo_generalist/finetune"):
         main(["train", "--config", "no_such_step", "--out", "unused"])
 
 
