@@ -25,8 +25,9 @@ class RaceRules:
     ``mode="race"`` freezes the car for a time penalty while the clock runs and then
     re-places it on the nearest lane at its last valid progress (DeepRacer evaluation), or,
     after a crash into a box, 1 m behind the box on the other lane (DeepRacer's
-    ``RESET_BEHIND_DIST``), on the first spot there or up to 3.5 m back (that lane first,
-    then the other) whose box clears every other body by 7 cm; with none
+    ``RESET_BEHIND_DIST``; where that is taken, up that lane to 0.25 m behind the box), on
+    the first spot there or up to 3.5 m back (that lane first, then the other) whose box
+    clears every other body by 7 cm; with none
     clear it stays frozen, parked off the track, until one is (``h2h_racing.replacement``).
     """
 

@@ -3,9 +3,9 @@
 Training rules end a car's episode at an infraction; race rules freeze it for a time penalty
 and then put it back on the first spot clear of every other body (``h2h_racing.replacement``):
 after leaving the track, reversing or stalling, on the lane nearest to where it stopped at its
-last valid progress; after hitting a box, as DeepRacer does (``RESET_BEHIND_DIST``), 1 m behind
-the box on the other lane, the one the box leaves clear. Cars whose episode ended are parked off the
-track. ``RaceCore`` (``h2h_racing.core``) mixes ``CorePenalties`` in.
+last valid progress; after hitting a box, as DeepRacer does (``RESET_BEHIND_DIST``), 1 m
+behind the box on the other lane, the one the box leaves clear. Cars whose episode ended are
+parked off the track. ``RaceCore`` (``h2h_racing.core``) mixes ``CorePenalties`` in.
 """
 
 from __future__ import annotations

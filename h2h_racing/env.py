@@ -31,8 +31,8 @@ as on the real car. Finite values outside [-1, 1] are clipped; NaN or inf raise
 lateral offset, heading error, curvature look-ahead up to 5 m, track half-widths, race
 position, penalty flag, and for the nearest opponents their track-relative gap, lateral
 offset and relative speed, and for the nearest obstacles from 0.5 m behind to 5 m ahead
-(so a box beside the car stays in view until the car is past it) their gap and offset. Bot cars are opponents here: the
-`opponent_slots` take the nearest of the other cars and the bots alike (a bot moves, so it
+(so a box beside the car stays in view until the car is past it) their gap and offset. Bot
+cars are opponents here: the `opponent_slots` take the nearest of the other cars and the bots alike (a bot moves, so it
 needs the speed feature the obstacle slots lack), so a learner in `head_to_bot` sees them
 without extra slots; raise `opponent_slots` with many bots.
 

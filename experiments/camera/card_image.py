@@ -36,7 +36,9 @@ def lidar_picture(ranges: np.ndarray, fov_deg: float, max_range: float, size: in
         tip = centre + pixels * r * np.array([-math.sin(angle), -math.cos(angle)])
         cv2.line(img, tuple(int(c) for c in centre), tuple(int(c) for c in tip),
                  255 if hit else 120, 1)
-    cv2.rectangle(img, tuple(int(c) for c in centre - [3, 5]), tuple(int(c) for c in centre + [3, 5]), 255, -1)
+    corner = np.array([3, 5])
+    cv2.rectangle(img, tuple(int(c) for c in centre - corner),
+                  tuple(int(c) for c in centre + corner), 255, -1)
     return img
 
 
