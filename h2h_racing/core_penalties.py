@@ -22,6 +22,7 @@ from h2h_racing.replacement import (
     RESET_BEHIND_OBSTACLE,
     place_kernel,
 )
+from h2h_racing.track_lookup import wrap_arc
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -65,8 +66,7 @@ class CorePenalties:
         # clear (DeepRacer). A few contacts per step at most: this loop is over contact events.
         for env, car, k in obstacle_hits:
             if crash[env, car] and infraction[env, car]:
-                ahead = self.obstacle_s[env, k] - self.s[env, car]
-                ahead -= self.track.length * np.round(ahead / self.track.length)
+                ahead = wrap_arc(self.obstacle_s[env, k] - self.s[env, car], self.track.length)
                 self.replace_distance[env, car] = (self.distance[env, car] + ahead
                                                    - RESET_BEHIND_OBSTACLE)
                 # The box's side of the centre line (0 for a box on it: the nearest lane).
