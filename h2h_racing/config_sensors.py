@@ -18,6 +18,10 @@ def _camera_fail(name: str, value: object, expected: str) -> None:
                      f"passed to CameraConfig")
 
 
+MAX_FRAME_STACK = 32
+"""Most camera frames one observation stacks (``CameraConfig.frame_stack``)."""
+
+
 @dataclass(frozen=True, kw_only=True)
 class CameraConfig:
     """Where the camera sits, what it resolves and how frames are produced.
@@ -66,8 +70,8 @@ class CameraConfig:
             _camera_fail("width", self.width, "in [8, 4096] px")
         if not 8 <= self.height <= 4096:
             _camera_fail("height", self.height, "in [8, 4096] px")
-        if not 1 <= self.frame_stack <= 32:
-            _camera_fail("frame_stack", self.frame_stack, "in [1, 32]")
+        if not 1 <= self.frame_stack <= MAX_FRAME_STACK:
+            _camera_fail("frame_stack", self.frame_stack, f"in [1, {MAX_FRAME_STACK}]")
         if not 64 <= self.max_texture_px <= 32767:
             _camera_fail("max_texture_px", self.max_texture_px, "in [64, 32767] (OpenCV's limit)")
         if not isinstance(self.stereo, bool):

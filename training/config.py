@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from h2h_racing.config import EnvConfig, RaceRules, RewardConfig
+from h2h_racing.config_sensors import MAX_FRAME_STACK
 from h2h_racing.training.camera_network import check_camera, cnn_config
 from h2h_racing.training.device import check_device_name
 from h2h_racing.training.imitation import SCRIPTED_TEACHERS, ImitationConfig
@@ -166,6 +167,10 @@ class TrainConfig:
     """Reward weights."""
     camera_size: tuple[int, int] = (64, 48)
     """(width, height) of the camera image for camera policies [px]."""
+    camera_frames: int = 1
+    """Camera frames per observation, oldest first, one step (1/15 s) apart: the camera's
+    ``frame_stack`` (a new episode repeats its first frame). More than one gives the CNN the
+    recent past, where the track went after it left the view in a tight corner."""
     camera_channels: tuple[int, ...] = (16, 32, 16)
     """Output channels of the camera CNN's convolutions, one per layer (1-4 layers; a 5 x 5
     kernel, then 3 x 3 ones, each with stride 2 and zero padding, flattened at the end: no
@@ -282,6 +287,11 @@ class TrainConfig:
             raise ValueError(f"TrainConfig.eval_race_seconds must be > 0 [s], got "
                              f"{self.eval_race_seconds!r}")
         check_camera(self.camera_size, self.camera_channels)
+        if not (isinstance(self.camera_frames, int) and not isinstance(self.camera_frames, bool)
+                and 1 <= self.camera_frames <= MAX_FRAME_STACK):
+            raise ValueError(f"TrainConfig.camera_frames must be an int in [1, "
+                             f"{MAX_FRAME_STACK}] (frames per camera observation), got "
+                             f"{self.camera_frames!r}")
         if not isinstance(self.channels_last, bool):
             raise ValueError(f"TrainConfig.channels_last must be true or false, got "
                              f"{self.channels_last!r}")
@@ -324,7 +334,8 @@ class TrainConfig:
         builds both sensors from these settings, so ``sensors`` stays the state vector)."""
         race_type = self.race.resolved_type(self.num_cars)
         camera = dataclasses.replace(EnvConfig().camera, width=self.camera_size[0],
-                                     height=self.camera_size[1])
+                                     height=self.camera_size[1],
+                                     frame_stack=self.camera_frames)
         track = "speedway" if self.track == PROCEDURAL else self.track
         rules = RaceRules.preset(race_type, "training")
         if self.rules == "race":

@@ -157,3 +157,49 @@ class TestChannelsLast:
                                           batch_size=[1])).numpy()
         # Same weights; the two layouts may sum in another order (float rounding).
         assert np.allclose(driver.act(env.core, 0), np.clip(expected, -1, 1), atol=1e-5)
+
+
+class TestFrames:
+    """``camera_frames``: the camera's ``frame_stack``, oldest frame first, in training and in
+    the trained driver."""
+
+    @pytest.mark.parametrize("frames", [0, 33, 2.0, True, "3"])
+    def test_bad_counts_rejected(self, frames: object) -> None:
+        with pytest.raises(ValueError, match=r"camera_frames must be an int in \[1, 32\]"):
+            TrainConfig(camera_frames=frames)  # type: ignore[arg-type]
+
+    def test_training_observation_is_the_last_frames_oldest_first(self) -> None:
+        config = dataclasses.replace(SMALL, camera_frames=3)
+        assert config.env_config().camera.frame_stack == 3
+        env = config.make_env()
+        first = env.get_observations()["camera"]
+        assert first.shape == (4, 3, 16, 24)
+        # A new episode repeats its first frame in every slot.
+        assert torch.equal(first[:, 0], first[:, 2]) and torch.equal(first[:, 1], first[:, 2])
+        drive = torch.tensor([[0.0, 1.0]]).repeat(4, 1)
+        second = env.step(drive)[0]["camera"]
+        third = env.step(drive)[0]["camera"]
+        # Each step shifts the history by one: the newest frame becomes the middle one, ...
+        assert torch.equal(third[:, 1], second[:, 2]) and torch.equal(third[:, 0], second[:, 1])
+        # ... and the car moved, so the newest frame is a new image.
+        assert not torch.equal(third[:, 2], second[:, 2])
+
+    def test_trained_driver_stacks_its_own_frames(self) -> None:
+        config = dataclasses.replace(SMALL, camera_frames=2)
+        runner = train(config, iterations=1)
+        driver = TrainedPolicy.from_payload(policy_payload(runner, config), name="frames")
+        env = h2h_racing.parallel_env(track="oval", num_cars=1, race_type="time_trial")
+        env.reset(seed=3)
+        driver.reset(env.core)
+        before = driver._observe(env.core, 0)["camera"]
+        assert before.shape == (1, 2, 16, 24) and np.array_equal(before[:, 0], before[:, 1])
+        action = driver.act(env.core, 0)
+        assert np.isfinite(action).all()
+        previous = before
+        for _ in range(3):
+            env.step({"car_0": np.array([0.0, 1.0], np.float32)})
+            now = driver._observe(env.core, 0)["camera"]
+            # The older slot holds the frame the driver saw one step before.
+            assert np.array_equal(now[:, 0], previous[:, 1])
+            assert not np.array_equal(now[:, 0], now[:, 1])
+            previous = now
