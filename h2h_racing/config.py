@@ -115,6 +115,11 @@ class EnvConfig:
     None spaces them evenly with alternating lanes."""
     randomize_obstacles: bool = False
     """Re-draw obstacle positions and lanes at every reset (DeepRacer's randomisation)."""
+    obstacle_min_gap: float = 2.0
+    """Smallest arc distance between neighbouring randomised obstacles, centre to centre [m]
+    (DeepRacer's ``MIN_DISTANCE_BETWEEN_OBSTACLES``). Closer, two boxes in opposite lanes of a
+    0.76 m track make a slalom no car can steer through. Where the lap has no room for it,
+    the obstacles are spaced evenly."""
     obstacle_length: float = 0.5
     """Obstacle box length along the lane [m] (DeepRacer's judged rectangle)."""
     obstacle_width: float = 0.4
@@ -229,6 +234,8 @@ class EnvConfig:
                        owner,
                        f"obstacle_positions[{i}]", pos,
                        "(fraction of the lap in [0, 1), lane +1 or -1)")
+        _check(_is_number(self.obstacle_min_gap) and 0.0 <= self.obstacle_min_gap < math.inf,
+               owner, "obstacle_min_gap", self.obstacle_min_gap, "a finite number >= 0 [m]")
         for name in ("obstacle_length", "obstacle_width", "grid_spacing", "step_dt"):
             _finite_positive(owner, name, getattr(self, name))
         _check(self.num_bots is None or (_is_int(self.num_bots)

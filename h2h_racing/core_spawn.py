@@ -101,7 +101,8 @@ class CoreSpawn:
             obs_s, obs_lane = spawn.obstacle_layout(
                 track, self.rng, m, self.num_obstacles, cfg.obstacle_positions,
                 cfg.randomize_obstacles, self.inner_sign,
-                grid_length=cfg.grid_spacing * (n - 1) + cfg.car.length)
+                grid_length=cfg.grid_spacing * (n - 1) + cfg.car.length,
+                min_gap=cfg.obstacle_min_gap)
             obs_d = spawn.lane_offset(track, obs_s, obs_lane)
             opos, oyaw = spawn.poses_on_track(track, obs_s, obs_d)
             self.obstacle_s[mask] = np.mod(obs_s, track.length)

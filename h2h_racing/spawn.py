@@ -17,6 +17,9 @@ OBSTACLE_CLEAR_START = 3.0
 """No obstacle is placed within this many metres after the start line [m]."""
 OBSTACLE_CLEAR_END = 1.0
 """No obstacle is placed within this many metres behind the start grid's last slot [m]."""
+MIDDLE_MARGIN = 0.2
+"""A randomised obstacle keeps at least this fraction of its share of the lap from either end
+of the share, so neighbours stay at least twice as far apart (40 % of a share)."""
 BOT_CLEAR_START = 2.0
 """The first bot starts this far ahead of the start point [m] (DeepRacer's
 ``MIN_DISTANCE_BETWEEN_BOT_CARS`` doubles as the first position)."""
@@ -77,14 +80,17 @@ def poses_on_track(track: Track, s: FloatArray, d: FloatArray) -> tuple[FloatArr
 
 def obstacle_layout(track: Track, rng: np.random.Generator, num_envs: int, count: int,
                     positions: tuple[tuple[float, int], ...] | None, randomize: bool,
-                    inner_sign: int, grid_length: float = 0.0) -> tuple[FloatArray, FloatArray]:
+                    inner_sign: int, grid_length: float = 0.0,
+                    min_gap: float = 0.0) -> tuple[FloatArray, FloatArray]:
     """Place ``count`` obstacles per env copy on the lanes.
 
     Fixed ``positions`` are (fraction of the lap, lane). Otherwise obstacles are spaced
     evenly over the lap, clear of the start, on alternating lanes starting with the inner
     lane (DeepRacer's ``obstacles_agent_ctrl``); with ``randomize`` each one is re-drawn
-    uniformly within its share of the lap, on a random lane, per env copy. ``grid_length``
-    [m] is how far the start grid reaches behind the line; obstacles keep clear of it.
+    uniformly within the middle of its share of the lap, on a random lane, per env copy, so
+    that neighbours stay at least ``min_gap`` [m] and 40 % of a share apart (evenly spaced
+    where a share is shorter than ``min_gap``). ``grid_length`` [m] is how far the start grid
+    reaches behind the line; obstacles keep clear of it.
 
     Returns:
         ``(s (M, K), lane (M, K))``.
@@ -101,8 +107,11 @@ def obstacle_layout(track: Track, rng: np.random.Generator, num_envs: int, count
     share = usable / count
     k = np.arange(count, dtype=np.float64)
     if randomize:
-        # Uniform within the middle 60 % of each share, so neighbours stay >= 40 % apart.
-        u = 0.2 + 0.6 * rng.random((num_envs, count))
+        # Obstacle k sits at share (k + u_k) with u_k uniform on [a, 1 - a]; neighbours are
+        # share (1 + u_k+1 - u_k) >= 2 a share apart, so a = min_gap / (2 share), at least
+        # 0.2 (40 % of a share) and at most 0.5 (even spacing).
+        a = min(max(MIDDLE_MARGIN, min_gap / (2.0 * share)), 0.5)
+        u = a + (1.0 - 2.0 * a) * rng.random((num_envs, count))
         lane = np.where(rng.random((num_envs, count)) < 0.5, 1.0, -1.0)
     else:
         u = np.full((num_envs, count), 0.5)

@@ -1,7 +1,9 @@
 """How often DeepRacer's 6 random boxes, as the env draws them, make a slalom the car cannot
 steer through, per track.
 
-    python experiments/obstacles/impassable_slaloms.py [ROUTE.npy ...]
+    python experiments/obstacles/impassable_slaloms.py [MIN_GAP] [ROUTE.npy ...]
+
+MIN_GAP is ``EnvConfig.obstacle_min_gap`` [m] (default 2.0, env v4; 0 draws as env v3 did).
 
 A slalom is two consecutive boxes passed on opposite sides. Passing a box, the car's centre
 stays ``obstacle_width / 2 + car.width / 2`` from the box's centre line, on the side with more
@@ -34,7 +36,8 @@ def impassable_share(name: str, cfg: EnvConfig) -> float:
     radius = car.wheelbase / math.tan(car.max_steer)
     half_w = cfg.obstacle_width / 2
     need = half_w + car.width / 2
-    s, lane = spawn.obstacle_layout(track, np.random.default_rng(0), LAYOUTS, 6, None, True, 1)
+    s, lane = spawn.obstacle_layout(track, np.random.default_rng(0), LAYOUTS, 6, None, True, 1,
+                                    min_gap=cfg.obstacle_min_gap)
     s_wrapped = np.mod(s, track.length)
     d = spawn.lane_offset(track, s_wrapped, lane)
     left, right = track.half_widths_at(s_wrapped)
@@ -48,8 +51,10 @@ def impassable_share(name: str, cfg: EnvConfig) -> float:
 
 
 def main() -> None:
-    cfg = EnvConfig(track="speedway")
-    for name in [*list_tracks(), *sys.argv[1:]]:
+    # Env v4's draw (obstacle_min_gap 2 m); obstacle_min_gap=0.0 gives v3's.
+    cfg = EnvConfig(track="speedway", obstacle_min_gap=float(sys.argv[1]) if len(sys.argv) > 1
+                    and not sys.argv[1].endswith(".npy") else 2.0)
+    for name in [*list_tracks(), *[a for a in sys.argv[1:] if a.endswith(".npy")]]:
         print(f"{name:40s} {100 * impassable_share(name, cfg):5.1f} % of {LAYOUTS} layouts")
 
 
