@@ -8,7 +8,8 @@ bends the driver's lateral target round every box near the car:
 * each box is passed on the side with more room between it and the border;
 * while the car's body overlaps the box along the track, its centre must stay at least
   ``obstacle_width / 2 + car.width / 2 + clearance`` from the box's centre line, on that
-  side, and ``EDGE`` inside the border (on a narrow track the outer wheels may cross the
+  side, plus, on the outside of a bend, how far the straight box's ends stick out of its
+  curved lane (0.09 m in a 0.5 m corner), and ``EDGE`` inside the border (on a narrow track the outer wheels may cross the
   border: a car is off track only with all four wheels off);
 * the lateral target moves over to that side along a smoothstep ramp of ``approach`` metres
   before the box (and back over ``departure`` metres after it), so the path's extra
@@ -17,7 +18,10 @@ bends the driver's lateral target round every box near the car:
   line, and its speed profile does not know the detour), and, where the car still has to move
   across by ``dy`` before the box's front ``D`` ahead (two boxes close together in opposite
   lanes make a tight slalom), at ``D sqrt(a_lat / (2 dy))``, the speed at which a parabolic
-  move across stays within the lateral acceleration ``a_lat``.
+  move across stays within the lateral acceleration ``a_lat``;
+* round a box on a bend, at ``sqrt(bend_grip mu g / k)``, with ``k`` the curvature of the
+  passing path (the lane at the passing offset): on the inside it is tighter than the racing
+  line the speed profile was made for, and the car slid into boxes in 0.5 m corners.
 
 The ramp is evaluated at the pursuit target (ahead of the car) for the way in and at the car's
 front for the way out, so the body clears the box before the target moves back. Boxes are
@@ -57,11 +61,27 @@ def _presence(x: FloatArray, front: FloatArray, back: FloatArray, approach: floa
     return np.where(x < front, rise, np.where(x > back, fall, 1.0))
 
 
+def bend_protrusion(curvature: FloatArray, box_d: FloatArray,
+                     half_len: float) -> tuple[FloatArray, FloatArray]:
+    """How far a box's ends reach beyond its sides' lines on a bend, to the left and to the
+    right of the lane (each >= 0, same shape as ``box_d``) [m].
+
+    The box lies along the tangent of its lane at its centre. The lane at offset ``d`` of a
+    centre line of curvature ``k`` (left positive) has curvature ``k_l = k / (1 - k d)``, radius
+    ``R = 1 / |k_l|``; an end ``h = half_len`` along the tangent is ``sqrt(R^2 + h^2)`` from
+    the bend's centre, so it sticks out by ``sqrt(R^2 + h^2) - R = h^2 |k_l| / (1 +
+    sqrt(1 + (h k_l)^2))``, on the side away from the centre: the right on a left-hander.
+    """
+    k_lane = curvature / np.maximum(1.0 - curvature * box_d, 0.1)
+    out = half_len * half_len * np.abs(k_lane) / (1.0 + np.sqrt(1.0 + (half_len * k_lane) ** 2))
+    return np.where(k_lane < 0.0, out, 0.0), np.where(k_lane > 0.0, out, 0.0)
+
+
 def avoid_obstacles(core: RaceCore, car: int, s_target: FloatArray, offset: FloatArray,
                     speed: FloatArray, *, clearance: float = 0.1, approach: float = 1.6,
                     departure: float = 0.4, speed_cap: float = 2.2,
                     lateral_accel: float = 0.4, min_speed: float = 0.6,
-                    ) -> tuple[FloatArray, FloatArray]:
+                    bend_grip: float = 0.6) -> tuple[FloatArray, FloatArray]:
     """Bend the lateral target of car ``car`` round the boxes near it (see the module docstring).
 
     Args:
@@ -77,6 +97,8 @@ def avoid_obstacles(core: RaceCore, car: int, s_target: FloatArray, offset: Floa
         lateral_accel: Lateral acceleration budget of a move across to a box's passing
             side, as a fraction of ``mu g``.
         min_speed: Lowest speed command the move-across limit gives [m/s].
+        bend_grip: Lateral acceleration budget round a box on a bend, on the passing path's
+            radius, as a fraction of ``mu g``.
 
     Returns:
         ``(offset, speed)``, each shape (E,).
@@ -107,10 +129,13 @@ def avoid_obstacles(core: RaceCore, car: int, s_target: FloatArray, offset: Floa
     left, right = core.track.half_widths_at(core.obstacle_s)
     box_d = core.obstacle_d
     half_w = 0.5 * cfg.obstacle_width
-    room_left = left - (box_d + half_w)
-    room_right = (box_d - half_w) + right
+    # A straight box on a bend: its ends stick out of its lane towards the outside.
+    out_left, out_right = bend_protrusion(core.track.curvature_at(core.obstacle_s), box_d,
+                                           half_len)
+    room_left = left - (box_d + half_w + out_left)
+    room_right = (box_d - half_w - out_right) + right
     side = np.where(room_left >= room_right, 1.0, -1.0)
-    need = half_w + 0.5 * params.width + clearance
+    need = half_w + 0.5 * params.width + clearance + np.where(side > 0, out_left, out_right)
     # Beside a box on a narrow track the car may put its outer wheels over the border (it is
     # off track only with all four off), keeping its centre EDGE inside.
     bound = np.clip(box_d + side * need, -right + EDGE, left - EDGE)
@@ -123,6 +148,13 @@ def avoid_obstacles(core: RaceCore, car: int, s_target: FloatArray, offset: Floa
         wrong = np.where(side[rows, k] > 0, out < b, out > b)
         out = np.where(wrong, out + f * (b - out), out)
     capped = np.where(presence.max(axis=1) > 0.0, np.minimum(speed, speed_cap), speed)
+    # Round a box on a bend the detour's radius is the lane's at the passing offset, tighter
+    # than the racing line's on the inside: keep v^2 |k| within bend_grip of mu g there.
+    span = core.obstacle_s[..., None] + np.array([-1.0, 0.0, 1.0]) * (half_len + half_body)
+    k = core.track.curvature_at(span)
+    k_path = np.abs(k / np.maximum(1.0 - k * bound[..., None], 0.1)).max(axis=-1)
+    v_bend = np.sqrt(bend_grip * params.friction * GRAVITY / np.maximum(k_path, 1e-6))
+    capped = np.minimum(capped, np.where(presence > 0.0, v_bend, np.inf).min(axis=1))
     # Slow down where the car must still move over by dy before a box's front, D ahead: a
     # parabolic move of dy over D curves at 2 dy / D^2, so v <= D sqrt(a_lat / (2 dy)).
     my_d = core.d[:, car][:, None]

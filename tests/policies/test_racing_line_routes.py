@@ -14,9 +14,9 @@ import pytest
 from h2h_racing.config import CarParams
 from h2h_racing.training.evaluate import evaluate
 from h2h_racing.match import run_race
-from h2h_racing.policies import RacingLine, compute_race_line, race_core
+from h2h_racing.policies import RacingLine, compute_race_line, make_driver, race_core
 from h2h_racing.policies.banded import CyclicPentadiagonal
-from h2h_racing.policies.obstacles import avoid_obstacles
+from h2h_racing.policies.obstacles import avoid_obstacles, bend_protrusion
 from h2h_racing.policies.racing_line import curvature_qp_bands, min_curvature_offsets
 from h2h_racing.track import Track
 from h2h_racing.track_io import list_tracks, load_track
@@ -236,21 +236,47 @@ class TestObjectAvoidance:
     """Scripted drivers steer round the boxes of object_avoidance races and finish them."""
 
     def test_target_beside_a_box_by_hand(self) -> None:
-        # One box on the oval's left lane at 30 % of the lap. Beside it the target is on the
-        # right (more room), its centre w/2 + car width/2 + clearance = 0.2 + 0.09805 + 0.1 m
-        # from the box's centre line; 5 m away nothing changes.
+        # One box on the oval's left lane at 30 % of the lap, in a left-hander. Beside it the
+        # target is on the right (more room), its centre w/2 + car width/2 + clearance = 0.2 +
+        # 0.09805 + 0.1 m from the box's centre line, plus how far the box's ends stick out
+        # of its lane, of radius R = (1 - k d) / k, on the outside: sqrt(R^2 + 0.25^2) - R
+        # (k = 0.56 1/m: 0.0204 m). 5 m away nothing changes.
         core = race_core("oval", 1, race_type="object_avoidance",
                          obstacle_positions=((0.3, 1),))
         s_box, d_box = core.obstacle_s[0, 0], core.obstacle_d[0, 0]
-        assert d_box > 0.1
+        k = float(core.track.curvature_at(s_box))
+        assert d_box > 0.1 and 0.5 < k < 0.6
+        radius = (1 - k * d_box) / k
+        sticks_out = math.hypot(radius, 0.25) - radius
         want = np.array([0.05])
-        for gap, expected_offset, expected_speed in ((0.0, d_box - 0.39805, 2.2),
+        for gap, expected_offset, expected_speed in ((0.0, d_box - 0.39805 - sticks_out, 2.2),
                                                      (5.0, 0.05, 3.5)):
             core.s[0, 0] = s_box - gap
             core.d[0, 0] = expected_offset  # already on its side: no move-across limit
             out, speed = avoid_obstacles(core, 0, core.s[:, 0] + 0.6, want, np.array([3.5]))
             assert out[0] == pytest.approx(expected_offset, abs=1e-9)
             assert speed[0] == pytest.approx(expected_speed)
+
+    def test_a_box_on_a_bend_sticks_out_on_the_outside_by_hand(self) -> None:
+        # A left-hander of radius 0.5 m (k = 2): a 0.5 m box centred on the centre line has
+        # its ends sqrt(0.5^2 + 0.25^2) - 0.5 = 0.0590 m out, on the right. On the left lane
+        # (d = 0.19) the lane's radius is 0.31 m: sqrt(0.31^2 + 0.25^2) - 0.31 = 0.0883 m.
+        # A right-hander mirrors it; a straight has none.
+        left, right = bend_protrusion(np.array([2.0, 2.0, -2.0, 0.0]),
+                                       np.array([0.0, 0.19, -0.19, 0.19]), 0.25)
+        assert right == pytest.approx([0.0590, 0.0883, 0.0, 0.0], abs=1e-4)
+        assert left == pytest.approx([0.0, 0.0, 0.0883, 0.0], abs=1e-4)
+
+    @pytest.mark.parametrize("seed", [1, 2])
+    def test_tight_corner_layouts_of_technical(self, seed: int) -> None:
+        # Seeds 1 and 2 put a box in one of technical's 0.5-0.7 m corners. Passing it on the
+        # inside on the racing line's speed, the car slid into it (3 crashes in 3 laps each);
+        # on the outside, the box's ends stick out of its lane.
+        row = run_race("technical", [make_driver("racing_line", follow_gap=2.0,
+                                                 closing_speed=0.3)],
+                       race_type="object_avoidance", seed=seed, laps=3,
+                       randomize_obstacles=True).rows[0]
+        assert row["laps"] == 3 and row["crashes"] == 0, row
 
     @pytest.mark.parametrize("driver,track", [("racing_line", "speedway"),
                                               ("pure_pursuit", "oval")])
