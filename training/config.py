@@ -171,6 +171,9 @@ class TrainConfig:
     """Camera frames per observation, oldest first, one step (1/15 s) apart: the camera's
     ``frame_stack`` (a new episode repeats its first frame). More than one gives the CNN the
     recent past, where the track went after it left the view in a tight corner."""
+    camera_stereo: bool = False
+    """DeepRacer's ``STEREO_CAMERAS``: two cameras 6 cm apart, each frame two channels (left,
+    right), instead of the one front camera."""
     camera_channels: tuple[int, ...] = (16, 32, 16)
     """Output channels of the camera CNN's convolutions, one per layer (1-4 layers; a 5 x 5
     kernel, then 3 x 3 ones, each with stride 2 and zero padding, flattened at the end: no
@@ -292,6 +295,9 @@ class TrainConfig:
             raise ValueError(f"TrainConfig.camera_frames must be an int in [1, "
                              f"{MAX_FRAME_STACK}] (frames per camera observation), got "
                              f"{self.camera_frames!r}")
+        if not isinstance(self.camera_stereo, bool):
+            raise ValueError(f"TrainConfig.camera_stereo must be true or false, got "
+                             f"{self.camera_stereo!r}")
         if not isinstance(self.channels_last, bool):
             raise ValueError(f"TrainConfig.channels_last must be true or false, got "
                              f"{self.channels_last!r}")
@@ -335,7 +341,8 @@ class TrainConfig:
         race_type = self.race.resolved_type(self.num_cars)
         camera = dataclasses.replace(EnvConfig().camera, width=self.camera_size[0],
                                      height=self.camera_size[1],
-                                     frame_stack=self.camera_frames)
+                                     frame_stack=self.camera_frames,
+                                     stereo=self.camera_stereo)
         track = "speedway" if self.track == PROCEDURAL else self.track
         rules = RaceRules.preset(race_type, "training")
         if self.rules == "race":

@@ -13,6 +13,8 @@ cd "$(dirname "$0")/../.."
 . /work/main/.venv/bin/activate
 export GIT_PYTHON_REFRESH=quiet  # rsl-rl imports GitPython
 MINUTES="${MINUTES:-8}"
+# ITERATIONS fixes the run's length instead (MINUTES then only caps it).
+ITERATIONS="${ITERATIONS:-100000}"
 CONFIG="${CONFIG:-experiments/obstacles/distilled.toml}"
 SEEDS="${SEEDS:-0 1 2}"
 # Extra flags for a quick check of the script, e.g. TRAIN_ARGS="--envs 16"
@@ -25,9 +27,9 @@ python experiments/obstacles/prepare_init.py "$OUT/init_generalist.pt" || exit 1
 for s in $SEEDS; do
   run="$OUT/distilled-seed$s"
   echo "$(date -u +%H:%M:%S) training seed $s -> $run"
-  # --minutes decides the length (--iterations only caps it).
+  # --minutes decides the length unless ITERATIONS is given.
   h2h-racing train --config "$CONFIG" \
-    --init "$OUT/init_generalist.pt" --minutes "$MINUTES" --iterations 100000 --seed "$s" \
+    --init "$OUT/init_generalist.pt" --minutes "$MINUTES" --iterations "$ITERATIONS" --seed "$s" \
     --no-onnx --no-progress --out "$run" $TRAIN_ARGS > "$run.log" 2>&1 \
     || { echo "seed $s failed: $run.log"; continue; }
   echo "$(date -u +%H:%M:%S) evaluating seed $s (in the background)"

@@ -203,3 +203,30 @@ class TestFrames:
             assert np.array_equal(now[:, 0], previous[:, 1])
             assert not np.array_equal(now[:, 0], now[:, 1])
             previous = now
+
+
+class TestStereo:
+    """``camera_stereo``: DeepRacer's two cameras, a channel each, in training and driving."""
+
+    def test_bad_value_rejected(self) -> None:
+        with pytest.raises(ValueError, match="camera_stereo must be true or false"):
+            TrainConfig(camera_stereo=1)  # type: ignore[arg-type]
+
+    def test_two_views_a_baseline_apart(self) -> None:
+        config = dataclasses.replace(SMALL, camera_stereo=True, camera_frames=2)
+        assert config.env_config().camera.stereo
+        frames = config.make_env().get_observations()["camera"]
+        # Two frames of two cameras, oldest first: (left, right, left, right).
+        assert frames.shape == (4, 4, 16, 24)
+        assert torch.equal(frames[:, 0], frames[:, 2]) and torch.equal(frames[:, 1], frames[:, 3])
+        # The cameras stand 6 cm apart: their images differ.
+        assert not torch.equal(frames[:, 0], frames[:, 1])
+
+    def test_trained_driver_sees_both(self) -> None:
+        config = dataclasses.replace(SMALL, camera_stereo=True)
+        runner = train(config, iterations=1)
+        driver = TrainedPolicy.from_payload(policy_payload(runner, config), name="stereo")
+        env = _env_after_a_few_steps()
+        driver.reset(env.core)
+        assert driver._observe(env.core, 0)["camera"].shape == (1, 2, 16, 24)
+        assert np.isfinite(driver.act(env.core, 0)).all()
