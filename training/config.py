@@ -217,6 +217,11 @@ class TrainConfig:
     """A policy (shipped name or ``policy.pt``) whose actor weights training starts from
     (fine-tuning; its observations and hidden sizes must be this run's); None starts from
     random weights. The critic always starts fresh."""
+    init_fresh_slots: bool = False
+    """With ``init`` a state policy that raced alone (``ppo_generalist``), start the first-layer
+    weights of its state vector's opponent and obstacle slots at 0 and restart its observation
+    normaliser's sample count (``policy_file.load_init``): it meets boxes, bots or cars
+    without a kick of random size, and its normaliser follows the new states."""
     imitation: ImitationConfig = field(default_factory=ImitationConfig)
     """``[imitation]``: a teacher to distil instead of PPO, or a scripted driver that PPO's
     actor is kept near (nothing by default)."""
@@ -295,6 +300,11 @@ class TrainConfig:
             raise ValueError(f"TrainConfig.camera_frames must be an int in [1, "
                              f"{MAX_FRAME_STACK}] (frames per camera observation), got "
                              f"{self.camera_frames!r}")
+        if not isinstance(self.init_fresh_slots, bool) or (self.init_fresh_slots
+                                                           and self.init is None):
+            raise ValueError(f"TrainConfig.init_fresh_slots must be true or false, and true "
+                             f"only with an init policy (init = \"ppo_generalist\"), got "
+                             f"{self.init_fresh_slots!r} with init={self.init!r}")
         if not isinstance(self.camera_stereo, bool):
             raise ValueError(f"TrainConfig.camera_stereo must be true or false, got "
                              f"{self.camera_stereo!r}")

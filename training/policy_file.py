@@ -73,17 +73,42 @@ def _plain(value: Any) -> Any:
     return value
 
 
-def load_init(runner: Any, init: str) -> None:
+FRESH_SLOTS_COUNT = 2 * 512 * 32
+"""Sample count an ``init_fresh_slots`` init's observation normaliser restarts from: two
+rollouts of 512 copies x 32 steps."""
+
+
+def load_init(runner: Any, init: str, fresh_slots: bool = False) -> None:
     """Load the actor weights of policy ``init`` (shipped name or path) into ``runner``'s
     actor (the student when distilling), its std projected into this run's range (an init
     trained without ``max_std`` may have a std of 10).
 
+    With ``fresh_slots`` (``TrainConfig.init_fresh_slots``) the state vector's opponent and
+    obstacle slots (features ``BASE_FEATURES`` on) get first-layer weights of 0, and the
+    observation normaliser's sample count restarts from ``FRESH_SLOTS_COUNT``. A policy that
+    raced alone saw those slots at 0 all its life: its normaliser holds std 0 for them (a box
+    in view would be an input of 1 / 0.01 = 100) and their weights are still random. So
+    loaded, it drives exactly as before until training gives the slots weight, and its
+    normaliser follows the states with boxes and cars within a few iterations instead of
+    being outweighed by the millions of samples it was fitted on.
+
     Raises:
-        FileNotFoundError, ValueError: ``init`` is not a policy, or its actor does not fit.
+        FileNotFoundError, ValueError: ``init`` is not a policy, or its actor does not fit
+            (or, with ``fresh_slots``, is not a state-observation MLP).
     """
     from h2h_racing.policies.trained import load_policy_payload
+    from h2h_racing.sensors.state import BASE_FEATURES
 
     payload = load_policy_payload(init)
+    if fresh_slots:
+        actor = payload["actor_state_dict"]
+        if payload["observations"] != "state" or "mlp.0.weight" not in actor:
+            raise ValueError(f"init_fresh_slots needs a state-observation policy as init, got "
+                             f"{init!r} with observations={payload['observations']!r}; drop "
+                             f"init_fresh_slots or start from a state policy")
+        actor["mlp.0.weight"][:, BASE_FEATURES:] = 0.0
+        count = actor["obs_normalizer.count"]
+        actor["obs_normalizer.count"] = torch.full_like(count, FRESH_SLOTS_COUNT)
     load_actor(runner.alg.get_policy(), payload, f"init policy {init!r}")
     project_std(runner.alg.get_policy())
 

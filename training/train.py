@@ -142,7 +142,7 @@ def make_runner(config: TrainConfig, env: Any, log_dir: str | None = None) -> An
         load_actor(runner.alg.teacher, teacher, f"teacher {config.imitation.teacher!r}")
         runner.alg.teacher_loaded = True
     if config.init is not None:
-        load_init(runner, config.init)
+        load_init(runner, config.init, fresh_slots=config.init_fresh_slots)
     if config.channels_last:
         for name in ("actor", "critic", "student"):
             if getattr(runner.alg, name, None) is not None:
