@@ -305,12 +305,10 @@ class TrainConfig:
             raise ValueError(f"TrainConfig.init_fresh_slots must be true or false, and true "
                              f"only with an init policy (init = \"ppo_generalist\"), got "
                              f"{self.init_fresh_slots!r} with init={self.init!r}")
-        if not isinstance(self.camera_stereo, bool):
-            raise ValueError(f"TrainConfig.camera_stereo must be true or false, got "
-                             f"{self.camera_stereo!r}")
-        if not isinstance(self.channels_last, bool):
-            raise ValueError(f"TrainConfig.channels_last must be true or false, got "
-                             f"{self.channels_last!r}")
+        for name in ("camera_stereo", "channels_last"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"TrainConfig.{name} must be true or false, got "
+                                 f"{getattr(self, name)!r}")
         check_device_name(self.device)
 
     @classmethod
