@@ -201,6 +201,12 @@ class RacingLine:
         lookahead_gain: Extra look-ahead per m/s of speed [s].
         follow_gap: Distance ahead within which another car is avoided [m].
         closing_speed: Largest speed excess over a car being avoided [m/s].
+        box_clearance: Gap kept between the car's side and a box's side
+            (``avoid_obstacles``' ``clearance``) [m].
+        box_speed_cap: Highest speed command near a box (``speed_cap``) [m/s].
+        box_bend_grip: Fraction of ``mu g`` round a box on a bend (``bend_grip``). A teacher
+            for a learner that copies it within some error keeps wider margins: 0.2 m, 1.8
+            m/s and 0.35 (experiments/obstacles/README.md).
     """
 
     name = "racing_line"
@@ -208,9 +214,14 @@ class RacingLine:
     def __init__(self, grip_factor: float = 0.6, margin: float = 0.12,
                  speed_preview: float = 0.3, lookahead_base: float = 0.35,
                  lookahead_gain: float = 0.15, follow_gap: float = 1.2,
-                 closing_speed: float = 0.5) -> None:
+                 closing_speed: float = 0.5, box_clearance: float = 0.1,
+                 box_speed_cap: float = 2.2, box_bend_grip: float = 0.6) -> None:
         if not 0 < grip_factor <= 1:
             raise ValueError(f"grip_factor must be in (0, 1], got {grip_factor}")
+        if not (box_clearance >= 0 and box_speed_cap > 0 and 0 < box_bend_grip <= 1):
+            raise ValueError(f"box_clearance must be >= 0 [m], box_speed_cap > 0 [m/s] and "
+                             f"box_bend_grip in (0, 1], got {box_clearance}, {box_speed_cap} "
+                             f"and {box_bend_grip}")
         self.grip_factor = grip_factor
         self.margin = margin
         self.speed_preview = speed_preview
@@ -218,6 +229,8 @@ class RacingLine:
         self.lookahead_gain = lookahead_gain
         self.follow_gap = follow_gap
         self.closing_speed = closing_speed
+        self.box_margins = {"clearance": box_clearance, "speed_cap": box_speed_cap,
+                            "bend_grip": box_bend_grip}
         self.line: RaceLine | None = None
         self._track: Track | None = None
 
@@ -243,7 +256,7 @@ class RacingLine:
         speed = line.min_speed_ahead(s, horizon)
         if core.num_cars > 1 or core.num_bots:
             offset, speed = self._avoid(core, car, s_target, offset, speed)
-        offset, speed = avoid_obstacles(core, car, s_target, offset, speed)
+        offset, speed = avoid_obstacles(core, car, s_target, offset, speed, **self.box_margins)
         target = core.track.point_at(s_target, offset)
         steer = pursuit_steer(core, car, target)
         return to_action(core, steer, speed)

@@ -267,6 +267,25 @@ class TestObjectAvoidance:
         assert right == pytest.approx([0.0590, 0.0883, 0.0, 0.0], abs=1e-4)
         assert left == pytest.approx([0.0, 0.0, 0.0883, 0.0], abs=1e-4)
 
+    def test_teacher_margins_reach_the_avoidance(self, monkeypatch: pytest.MonkeyPatch) -> None:
+        import h2h_racing.policies.scripted as scripted
+
+        seen: list[dict[str, float]] = []
+
+        def spy(*args: object, **kwargs: float) -> object:
+            seen.append(kwargs)
+            return avoid_obstacles(*args, **kwargs)  # type: ignore[arg-type]
+
+        monkeypatch.setattr(scripted, "avoid_obstacles", spy)
+        core = race_core("oval", 1, race_type="object_avoidance")
+        driver = make_driver("racing_line", box_clearance=0.2, box_speed_cap=1.8,
+                             box_bend_grip=0.35)
+        driver.reset(core)
+        driver.act(core, 0)
+        assert seen == [{"clearance": 0.2, "speed_cap": 1.8, "bend_grip": 0.35}]
+        with pytest.raises(ValueError, match="box_bend_grip in \\(0, 1\\]"):
+            make_driver("racing_line", box_bend_grip=1.5)
+
     @pytest.mark.parametrize("seed", [1, 2])
     def test_tight_corner_layouts_of_technical(self, seed: int) -> None:
         # Seeds 1 and 2 put a box in one of technical's 0.5-0.7 m corners. Passing it on the
