@@ -19,7 +19,7 @@ OBSTACLE_CLEAR_END = 1.0
 """No obstacle is placed within this many metres behind the start grid's last slot [m]."""
 MIDDLE_MARGIN = 0.2
 """A randomised obstacle keeps at least this fraction of its share of the lap from either end
-of the share, so neighbours stay at least twice as far apart (40 % of a share)."""
+of the share, so neighbours stay at least 2 x 0.2 = 40 % of a share apart."""
 BOT_CLEAR_START = 2.0
 """The first bot starts this far ahead of the start point [m] (DeepRacer's
 ``MIN_DISTANCE_BETWEEN_BOT_CARS`` doubles as the first position)."""

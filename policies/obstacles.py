@@ -9,8 +9,8 @@ bends the driver's lateral target round every box near the car:
 * while the car's body overlaps the box along the track, its centre must stay at least
   ``obstacle_width / 2 + car.width / 2 + clearance`` from the box's centre line, on that
   side, plus, on the outside of a bend, how far the straight box's ends stick out of its
-  curved lane (0.09 m in a 0.5 m corner), and ``EDGE`` inside the border (on a narrow track the outer wheels may cross the
-  border: a car is off track only with all four wheels off);
+  curved lane (0.09 m in a 0.5 m corner), and ``EDGE`` inside the border (on a narrow track
+  the outer wheels may cross the border: a car is off track only with all four wheels off);
 * the lateral target moves over to that side along a smoothstep ramp of ``approach`` metres
   before the box (and back over ``departure`` metres after it), so the path's extra
   curvature stays near ``3 dy / approach^2`` (a lateral move dy of 0.4 m over 2 m: 0.3 1/m);
