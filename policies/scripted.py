@@ -139,13 +139,18 @@ class PurePursuit:
         lookahead_base: Look-ahead distance at standstill [m].
         lookahead_gain: Extra look-ahead per m/s of speed [s].
         offset: Lateral offset of the followed line from the centre line [m], left positive.
+        box_clearance: Gap kept between the car's side and a box's side [m]. Its longer
+            look-ahead cuts nearer a box on a bend than the racing line's: at 0.1 m it hit 9
+            boxes in 30 random-layout races and looped at one box of ``reInvent2019_track``'s
+            default layout; at 0.15 m none.
     """
 
     name = "pure_pursuit"
 
     def __init__(self, cruise_speed: float = 2.5, lateral_accel: float = 0.45,
                  preview: float = 2.0, lookahead_base: float = 0.35,
-                 lookahead_gain: float = 0.2, offset: float = 0.0) -> None:
+                 lookahead_gain: float = 0.2, offset: float = 0.0,
+                 box_clearance: float = 0.15) -> None:
         if not cruise_speed > 0:
             raise ValueError(f"cruise_speed must be > 0 m/s, got {cruise_speed}")
         if not 0 < lateral_accel <= 1:
@@ -157,6 +162,9 @@ class PurePursuit:
         self.lookahead_base = lookahead_base
         self.lookahead_gain = lookahead_gain
         self.offset = offset
+        if not box_clearance >= 0:
+            raise ValueError(f"box_clearance must be >= 0 m, got {box_clearance}")
+        self.box_clearance = box_clearance
 
     def reset(self, core: RaceCore) -> None:
         """Nothing to precompute: the centre line is the track's own."""
@@ -170,7 +178,8 @@ class PurePursuit:
         limit = _curvature_speed(core, s, offset, self.preview, a_lat)
         speed = np.minimum(self.cruise_speed, limit)
         offset = np.broadcast_to(np.asarray(offset, dtype=np.float64), s.shape)
-        offset, speed = avoid_obstacles(core, car, s + ld, offset, speed)
+        offset, speed = avoid_obstacles(core, car, s + ld, offset, speed,
+                                        clearance=self.box_clearance)
         target = core.track.point_at(s + ld, offset)
         steer = pursuit_steer(core, car, target)
         return to_action(core, steer, speed)
