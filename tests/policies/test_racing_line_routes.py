@@ -285,6 +285,8 @@ class TestObjectAvoidance:
         assert seen == [{"clearance": 0.2, "speed_cap": 1.8, "bend_grip": 0.35}]
         with pytest.raises(ValueError, match="box_bend_grip in \\(0, 1\\]"):
             make_driver("racing_line", box_bend_grip=1.5)
+        with pytest.raises(ValueError, match="box_clearance must be >= 0 m, got -0.1"):
+            make_driver("pure_pursuit", box_clearance=-0.1)
 
     @pytest.mark.parametrize("seed", [1, 2])
     def test_tight_corner_layouts_of_technical(self, seed: int) -> None:
