@@ -129,9 +129,11 @@ def avoid_obstacles(core: RaceCore, car: int, s_target: FloatArray, offset: Floa
     left, right = core.track.half_widths_at(core.obstacle_s)
     box_d = core.obstacle_d
     half_w = 0.5 * cfg.obstacle_width
+    # Centre-line curvature behind, at and ahead of each box (where the body overlaps it).
+    span = core.obstacle_s[..., None] + np.array([-1.0, 0.0, 1.0]) * (half_len + half_body)
+    k_span = core.track.curvature_at(span)
     # A straight box on a bend: its ends stick out of its lane towards the outside.
-    out_left, out_right = bend_protrusion(core.track.curvature_at(core.obstacle_s), box_d,
-                                           half_len)
+    out_left, out_right = bend_protrusion(k_span[..., 1], box_d, half_len)
     room_left = left - (box_d + half_w + out_left)
     room_right = (box_d - half_w - out_right) + right
     side = np.where(room_left >= room_right, 1.0, -1.0)
@@ -150,9 +152,7 @@ def avoid_obstacles(core: RaceCore, car: int, s_target: FloatArray, offset: Floa
     capped = np.where(presence.max(axis=1) > 0.0, np.minimum(speed, speed_cap), speed)
     # Round a box on a bend the detour's radius is the lane's at the passing offset, tighter
     # than the racing line's on the inside: keep v^2 |k| within bend_grip of mu g there.
-    span = core.obstacle_s[..., None] + np.array([-1.0, 0.0, 1.0]) * (half_len + half_body)
-    k = core.track.curvature_at(span)
-    k_path = np.abs(k / np.maximum(1.0 - k * bound[..., None], 0.1)).max(axis=-1)
+    k_path = np.abs(k_span / np.maximum(1.0 - k_span * bound[..., None], 0.1)).max(axis=-1)
     v_bend = np.sqrt(bend_grip * params.friction * GRAVITY / np.maximum(k_path, 1e-6))
     capped = np.minimum(capped, np.where(presence > 0.0, v_bend, np.inf).min(axis=1))
     # Slow down where the car must still move over by dy before a box's front, D ahead: a
