@@ -97,20 +97,32 @@ def load_init(runner: Any, init: str, fresh_slots: bool = False) -> None:
             (or, with ``fresh_slots``, is not a state-observation MLP).
     """
     from h2h_racing.policies.trained import load_policy_payload
-    from h2h_racing.sensors.state import BASE_FEATURES
 
     payload = load_policy_payload(init)
     if fresh_slots:
-        actor = payload["actor_state_dict"]
-        if payload["observations"] != "state" or "mlp.0.weight" not in actor:
-            raise ValueError(f"init_fresh_slots needs a state-observation policy as init, got "
-                             f"{init!r} with observations={payload['observations']!r}; drop "
-                             f"init_fresh_slots or start from a state policy")
-        actor["mlp.0.weight"][:, BASE_FEATURES:] = 0.0
-        count = actor["obs_normalizer.count"]
-        actor["obs_normalizer.count"] = torch.full_like(count, FRESH_SLOTS_COUNT)
+        freshen_slots(payload, init)
     load_actor(runner.alg.get_policy(), payload, f"init policy {init!r}")
     project_std(runner.alg.get_policy())
+
+
+def freshen_slots(payload: dict[str, Any], source: str) -> None:
+    """Set, in policy dict ``payload`` (in place), the first-layer weights of the state
+    vector's opponent and obstacle slots to 0 and its observation normaliser's sample count
+    to ``FRESH_SLOTS_COUNT`` (``load_init``'s ``fresh_slots``).
+
+    Raises:
+        ValueError: ``payload`` (named ``source``) is not a state-observation MLP policy.
+    """
+    from h2h_racing.sensors.state import BASE_FEATURES
+
+    actor = payload["actor_state_dict"]
+    if payload["observations"] != "state" or "mlp.0.weight" not in actor:
+        raise ValueError(f"init_fresh_slots needs a state-observation policy as init, got "
+                         f"{source!r} with observations={payload['observations']!r}; drop "
+                         f"init_fresh_slots or start from a state policy")
+    actor["mlp.0.weight"][:, BASE_FEATURES:] = 0.0
+    count = actor["obs_normalizer.count"]
+    actor["obs_normalizer.count"] = torch.full_like(count, FRESH_SLOTS_COUNT)
 
 
 def load_actor(model: Any, payload: dict[str, Any], what: str) -> None:

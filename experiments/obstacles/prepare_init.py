@@ -9,11 +9,12 @@ them (a box in view becomes an input of 1 / 0.01 = 100), and the first layer's w
 those inputs are still their random initial values (they never got a gradient). Fine-tuned as
 it is, the policy's first sight of a box is a kick of random size.
 
-The file written here is the same policy with
+The file written here is the same policy as ``TrainConfig.init_fresh_slots`` loads it
+(``h2h_racing.training.policy_file.freshen_slots``), with
 
 - the first layer's weights of the slot features set to 0: it drives exactly as
   ``ppo_generalist`` until training gives them weight;
-- the normaliser's sample count cut to ``COUNT`` (two rollouts of 512 copies x 32 steps):
+- the normaliser's sample count cut to ``FRESH_SLOTS_COUNT`` (two rollouts of 512 copies x 32 steps):
   its statistics follow the states with boxes and bots within a few iterations, instead of
   being outweighed by the 25.7 M box-free samples it was fitted on.
 """
@@ -28,24 +29,19 @@ import torch
 
 from h2h_racing.policies.trained import load_policy_payload
 from h2h_racing.sensors.state import BASE_FEATURES
-
-COUNT = 2 * 512 * 32
-"""Sample count the normaliser restarts from."""
-
+from h2h_racing.training.policy_file import FRESH_SLOTS_COUNT, freshen_slots
 
 def prepare(policy: str, out: Path) -> dict[str, float]:
     """Write the prepared copy of ``policy`` to ``out``; return what was changed."""
     payload = load_policy_payload(policy)
-    if payload["observations"] != "state":
-        raise SystemExit(f"{policy}: a state-observation policy is needed, got "
-                         f"{payload['observations']!r}")
     actor = payload["actor_state_dict"]
-    weight = actor["mlp.0.weight"]
-    slots = slice(BASE_FEATURES, weight.shape[1])
-    changed = {"slot_weight_abs_sum": float(weight[:, slots].abs().sum()),
+    changed = {"slot_weight_abs_sum": float(actor["mlp.0.weight"][:, BASE_FEATURES:].abs().sum())
+               if "mlp.0.weight" in actor else 0.0,
                "count_before": float(actor["obs_normalizer.count"])}
-    weight[:, slots] = 0.0
-    actor["obs_normalizer.count"] = torch.tensor(COUNT, dtype=actor["obs_normalizer.count"].dtype)
+    try:
+        freshen_slots(payload, policy)
+    except ValueError as error:
+        raise SystemExit(str(error)) from None
     payload["training"] = {**payload.get("training", {}),
                            "prepared_by": "experiments/obstacles/prepare_init.py",
                            "prepared_from": str(policy)}
@@ -62,7 +58,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     changed = prepare(args.policy, args.out)
     print(f"{args.policy} -> {args.out}: slot weights |sum| {changed['slot_weight_abs_sum']:.2f}"
-          f" set to 0, normaliser count {changed['count_before']:.0f} -> {COUNT}")
+          f" set to 0, normaliser count {changed['count_before']:.0f} -> {FRESH_SLOTS_COUNT}")
     return 0
 
 
