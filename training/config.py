@@ -352,9 +352,10 @@ class TrainConfig:
                                      frame_stack=self.camera_frames,
                                      stereo=self.camera_stereo)
         track = "speedway" if self.track == PROCEDURAL else self.track
-        rules = RaceRules.preset(race_type, "training")
+        rules_type = self.race.rules_type(self.num_cars)
+        rules = RaceRules.preset(rules_type, "training")
         if self.rules == "race":
-            rules = dataclasses.replace(RaceRules.preset(race_type, "race"), laps=rules.laps,
+            rules = dataclasses.replace(RaceRules.preset(rules_type, "race"), laps=rules.laps,
                                         time_limit=rules.time_limit, ranking="total_time",
                                         max_resets_per_lap=None)
         return EnvConfig(track=track, num_cars=self.num_cars, race_type=race_type,

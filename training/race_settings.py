@@ -33,10 +33,12 @@ class RaceSettings:
     race_types: tuple[str, ...] = ()
     """Race types a procedural run (``track = "procedural"``) takes in turn, one per random
     track (``[procedural] every`` iterations each), instead of ``race_type``: e.g.
-    ``["object_avoidance", "head_to_bot"]`` trains one learner for both, each with its own
-    default boxes and bots (6 boxes and no bot, then no box and 3 bots) unless ``boxes`` or
-    ``bots`` is given. Their rules must match (every race type but ``time_trial``: 3 laps,
-    5 s penalties), since only the boxes and bots change between tracks."""
+    ``["object_avoidance", "head_to_bot", "time_trial"]`` trains one learner for all three,
+    each with its own default boxes and bots (6 boxes and no bot, then no box and 3 bots,
+    then neither) unless ``boxes`` or ``bots`` is given. Only the boxes and bots change
+    between tracks: every turn keeps the rules of the first race type listed other than
+    ``time_trial`` (``rules_type``), so a ``time_trial`` turn is a lap with the track to
+    itself under the same rules as the others."""
     boxes: int | None = None
     """Boxes on the lanes per env copy; None means the race type's default (6 for
     ``object_avoidance``, DeepRacer's ``NUMBER_OF_OBSTACLES``, else 0). A count other than
@@ -64,9 +66,11 @@ class RaceSettings:
         _check(self.race_type is None or self.race_type in RACE_TYPES, owner, "race_type",
                self.race_type, f"one of {RACE_TYPES} (or left out)")
         _check(isinstance(self.race_types, tuple)
-               and all(t in RACE_TYPES and t != "time_trial" for t in self.race_types),
-               owner, "race_types", self.race_types,
-               f"a list of race types other than 'time_trial' (same rules), from {RACE_TYPES}")
+               and all(t in RACE_TYPES for t in self.race_types)
+               and (not self.race_types or set(self.race_types) != {"time_trial"}),
+               owner, "race_types",
+               self.race_types, f"a list of race types from {RACE_TYPES}, at least one of them "
+               "other than 'time_trial' (for one race type, give race_type instead)")
         _check(not (self.race_types and self.race_type is not None), owner, "race_types",
                self.race_types, f"left out when race_type is given (got race_type "
                f"{self.race_type!r}): give one or the other")
@@ -91,6 +95,13 @@ class RaceSettings:
         if self.race_type is not None:
             return self.race_type
         return "time_trial" if num_cars == 1 else "head_to_head"
+
+    def rules_type(self, num_cars: int) -> str:
+        """The race type whose rules every turn keeps: the first of ``race_types`` other than
+        ``time_trial`` (their rules are the same: 3 laps, 5 s penalties), else
+        ``resolved_type``."""
+        racing = [t for t in self.race_types if t != "time_trial"]
+        return racing[0] if racing else self.resolved_type(num_cars)
 
     def env_fields(self) -> dict[str, Any]:
         """The ``EnvConfig`` fields of the boxes and bots (counts left None take the race

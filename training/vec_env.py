@@ -348,8 +348,8 @@ class RacingVecEnv(VecEnv):
             raise ValueError("a DeepRacer reward function or simtrace logs need one track; "
                              "train on a fixed track (not 'procedural') to use them")
         if self.race_types:
-            # Only the race type (its boxes and bots) changes: the rules of every race type
-            # but time_trial are the same (RaceSettings.race_types).
+            # Only the race type's default boxes and bots change: the rules are the run's own,
+            # fixed in self.config (RaceSettings.rules_type).
             kind = self.race_types[self._tracks_set % len(self.race_types)]
             self.config = dataclasses.replace(self.config, race_type=kind)
             self.cfg = self.config.to_dict()

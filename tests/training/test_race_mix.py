@@ -36,8 +36,9 @@ class TestRaceTypesTable:
         assert (env.race_type, env.obstacle_count, env.bot_count) == ("object_avoidance", 6, 0)
 
     @pytest.mark.parametrize(("race", "message"), [
-        ({"race_types": ["time_trial", "head_to_bot"]},
-         r"\[race\]\.race_types must be a list of race types other than 'time_trial'"),
+        ({"race_types": ["time_trial"]},
+         r"\[race\]\.race_types must be a list of race types from .* at least one of them "
+         r"other than 'time_trial' \(for one race type, give race_type instead\)"),
         ({"race_types": ["drag"]}, r"\[race\]\.race_types must be a list of race types"),
         ({"race_types": ["head_to_bot"], "race_type": "object_avoidance"},
          r"\[race\]\.race_types must be left out when race_type is given"),
@@ -45,6 +46,20 @@ class TestRaceTypesTable:
     def test_bad_lists_are_refused(self, race: dict, message: str) -> None:
         with pytest.raises(ValueError, match=message):
             TrainConfig.from_dict({"track": "procedural", "race": race}, source="run.toml")
+
+    @pytest.mark.parametrize("rules", ["training", "race"])
+    def test_a_time_trial_turn_keeps_the_racing_rules(self, rules: str) -> None:
+        # Listed first, time_trial sets the first track's (empty) boxes and bots, while the
+        # rules stay head_to_bot's: by hand from RaceRules.preset, 1-lap episodes of 120 s
+        # ranked on total time, with 5 s penalties in race mode and no void laps.
+        mixed = TrainConfig(track="procedural", rules=rules, race=RaceSettings(
+            race_types=("time_trial", "head_to_bot"))).env_config()
+        alone = TrainConfig(track="procedural", rules=rules, race=RaceSettings(
+            race_type="head_to_bot")).env_config()
+        assert (mixed.race_type, mixed.obstacle_count, mixed.bot_count) == ("time_trial", 0, 0)
+        assert mixed.rules == alone.rules
+        assert (mixed.rules.laps, mixed.rules.time_limit, mixed.rules.ranking,
+                mixed.rules.max_resets_per_lap) == (1, 120.0, "total_time", None)
 
     def test_a_fixed_track_is_refused(self) -> None:
         with pytest.raises(ValueError, match=r"race_types \['object_avoidance', "
@@ -69,6 +84,20 @@ class TestTurns:
             env.set_track(track)
             seen.append((env.config.race_type, env.core.num_obstacles, env.core.num_bots))
         assert seen == [("object_avoidance", 6, 0), ("head_to_bot", 0, 3)] * 2
+
+    def test_a_time_trial_turn_has_no_boxes_or_bots_and_the_same_rules(self) -> None:
+        config = dataclasses.replace(DISTIL, rules="race", race=RaceSettings(
+            race_types=("object_avoidance", "head_to_bot", "time_trial")))
+        env = config.make_env()
+        rules = env.config.rules
+        track = load_track("oval")
+        seen = []
+        for _ in range(4):
+            env.set_track(track)
+            seen.append((env.config.race_type, env.core.num_obstacles, env.core.num_bots))
+            assert env.core.rules == rules
+        assert seen == [("object_avoidance", 6, 0), ("head_to_bot", 0, 3),
+                        ("time_trial", 0, 0), ("object_avoidance", 6, 0)]
 
     def test_training_switches_race_type_with_the_track(self) -> None:
         # Tracks change every 2 iterations: after 3 iterations the run is on its second track,
