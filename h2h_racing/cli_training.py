@@ -249,7 +249,9 @@ def add_training_commands(sub: argparse._SubParsersAction) -> None:
                        help="TrainConfig fields from a TOML file, or a shipped policy's "
                             "training step by name: ppo_generalist/imitate, "
                             "ppo_generalist/finetune, racing_line_student/imitate, "
-                            "camera_racer/imitate; flags given override them")
+                            "camera_racer/imitate, obstacle_generalist/imitate, "
+                            "obstacle_generalist/anneal, obstacle_generalist/tight; flags given "
+                            "override them")
     train.add_argument("--track", default=None,
                        help="catalogue name, track file, random:<seed>, or 'procedural' (a new "
                             "random track every 10 iterations; a config's [procedural] table "

@@ -20,8 +20,10 @@ def test_shipped_league_configs_are_the_product_ones() -> None:
 
 def test_shipped_training_configs_are_named_by_policy_and_step() -> None:
     shipped = shipped_configs("train")
-    assert sorted(shipped) == ["camera_racer/imitate", "ppo_generalist/finetune",
-                               "ppo_generalist/imitate", "racing_line_student/imitate"]
+    assert sorted(shipped) == ["camera_racer/imitate", "obstacle_generalist/anneal",
+                               "obstacle_generalist/imitate", "obstacle_generalist/tight",
+                               "ppo_generalist/finetune", "ppo_generalist/imitate",
+                               "racing_line_student/imitate"]
     assert shipped["ppo_generalist/imitate"] == (
         REPO / "policies" / "trained" / "ppo_generalist" / "imitate.toml")
 
@@ -48,8 +50,9 @@ def test_unknown_names_list_the_shipped_ones() -> None:
         resolve_config("finishing", "league")
     # A training config is not a league config, and the other way round.
     with pytest.raises(FileNotFoundError, match="shipped: camera_racer/imitate, "
-                       "ppo_generalist/finetune, ppo_generalist/imitate, "
-                       "racing_line_student/imitate"):
+                       "obstacle_generalist/anneal, obstacle_generalist/imitate, "
+                       "obstacle_generalist/tight, ppo_generalist/finetune, "
+                       "ppo_generalist/imitate, racing_line_student/imitate"):
         resolve_config("smoke", "train")
     with pytest.raises(ValueError, match="config kind must be one of"):
         shipped_configs("tournament")  # type: ignore[arg-type]
@@ -62,7 +65,7 @@ def test_the_cli_names_the_shipped_configs() -> None:
     with pytest.raises(SystemExit, match="shipped: recommended, smoke"):
         main(["league", "train", "--config", "no_such_league"])
     with pytest.raises(SystemExit,
-                       match="shipped: camera_racer/imitate, ppo_generalist/finetune"):
+                       match="shipped: camera_racer/imitate, obstacle_generalist/anneal"):
         main(["train", "--config", "no_such_step", "--out", "unused"])
 
 

@@ -18,7 +18,7 @@ from h2h_racing.training.train import train
 from h2h_racing.policies import make_driver
 from h2h_racing.policies.trained import TrainedPolicy, shipped_policies
 from h2h_racing.sensors.state import state_observation
-from h2h_racing.track_io import list_tracks
+from h2h_racing.track_io import list_tracks, load_track
 
 SMALL = TrainConfig(track="oval", num_envs=8, num_steps_per_env=8, hidden_dims=(16, 16))
 
@@ -385,6 +385,23 @@ class TestShippedPolicies:
         assert result.wins_behind == 4
         assert result.overtakes[0] >= 4 and result.crashes[0] == 0
 
+    def test_obstacle_generalist_finishes_object_avoidance_and_passes_bots(self) -> None:
+        from h2h_racing.match import run_race
+
+        # Its card: 3 of 3 object-avoidance races on speedway without a crash; DeepRacer's 6
+        # boxes at seed 1's places here.
+        boxes = run_race("speedway", ["obstacle_generalist"], race_type="object_avoidance",
+                         seed=1).rows[0]
+        assert (boxes["finished"], boxes["laps"], boxes["crashes"]) == (True, 3, 0)
+        # 3 bots at 0.75 m/s on oval (a 20 m lap), each starting ahead of the car by b < 1 lap.
+        # In the race's total time T a bot ends at b + 0.75 T, the car at 3 laps: with
+        # 0.75 T < 2 laps the car ends ahead of every bot it started behind, so it passed all.
+        bots = run_race("oval", ["obstacle_generalist"], race_type="head_to_bot", seed=1)
+        row, lap = bots.rows[0], load_track("oval").length
+        assert (row["finished"], row["laps"], bots.bots) == (True, 3, 3)
+        assert 0.75 * row["total_time"] < 2 * lap
+        assert row["crashes"] <= 1
+
     @pytest.mark.parametrize("track", list_tracks())
     def test_generalist_laps_every_shipped_track(self, track: str) -> None:
         from h2h_racing.training.evaluate import evaluate
@@ -477,7 +494,6 @@ class TestProcedural:
 
     def test_set_track_restarts_every_copy(self) -> None:
         from h2h_racing.training.vec_env import RacingVecEnv
-        from h2h_racing.track_io import load_track
 
         env = RacingVecEnv(SMALL.env_config(), num_envs=3)
         for _ in range(5):
