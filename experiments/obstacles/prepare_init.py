@@ -31,6 +31,7 @@ from h2h_racing.policies.trained import load_policy_payload
 from h2h_racing.sensors.state import BASE_FEATURES
 from h2h_racing.training.policy_file import FRESH_SLOTS_COUNT, freshen_slots
 
+
 def prepare(policy: str, out: Path) -> dict[str, float]:
     """Write the prepared copy of ``policy`` to ``out``; return what was changed."""
     payload = load_policy_payload(policy)
