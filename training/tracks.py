@@ -1,7 +1,7 @@
 """Random training tracks of procedural runs (``TrainConfig.track = "procedural"``): lap
 length, width, corner radii, chicanes, direction and a share of tight, ``technical``-like
-tracks, each drawn from one generator; ``ProceduralTracks`` holds a run's settings (its
-``[procedural]`` table)."""
+tracks and of kart-style circuits of tight corners, each drawn from one generator;
+``ProceduralTracks`` holds a run's settings (its ``[procedural]`` table)."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ import numpy as np
 
 from h2h_racing.track import Track
 from h2h_racing.track_gen import random_track
+from h2h_racing.track_gen_circuit import random_circuit
 
 
 def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
@@ -19,7 +20,7 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
                           length: tuple[float, float] = (20.0, 45.0),
                           reverse_share: float = 0.0,
                           chicanes: tuple[int, int] = (0, 0),
-                          tight_share: float = 0.0) -> Track:
+                          tight_share: float = 0.0, circuit_share: float = 0.0) -> Track:
     """A random closed track for training: lap length drawn in ``length`` [m], width in the
     catalogue's range [0.76, 1.07] m: constant (drawn uniformly) or, on a ``varying_share`` of
     the tracks, varying along the lap between two widths drawn in that range (sorted); corners
@@ -31,8 +32,17 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
     lap ``TIGHT_LENGTH``, constant width ``TIGHT_WIDTH``, control-point radii down to 0.3 of
     the loop's size (deep bays: tight right-handers between left-handers), corners down to
     ``min_radius``, 1-3 chicanes; 5-20 % of their lap is in corners under 1 m radius, against
-    0-5 % for the other tracks (``technical``: 40 %)."""
+    0-5 % for the other tracks (``technical``: 40 %).
+
+    A ``circuit_share`` of the tracks are circuits of tight corners (``random_circuit``): width
+    drawn in ``TIGHT_WIDTH``, every corner 0.5-0.7 m radius (at least 0.6 x the width), 0-2
+    chicanes; 25-48 % of their lap is under 1 m radius (10th-90th percentile)."""
     # No draw without the option: the same seed gives the same tracks as before it.
+    if circuit_share > 0 and rng.random() < circuit_share:
+        width = float(rng.uniform(*TIGHT_WIDTH))
+        spec = random_circuit(rng, width=width, corner_radius=(max(0.5, 0.6 * width), 0.7),
+                              chicanes=(0, 2))
+        return _maybe_reversed(rng, spec, reverse_share)
     if tight_share > 0 and rng.random() < tight_share:
         width: float | tuple[float, float] = float(rng.uniform(*TIGHT_WIDTH))
         # About 1 in 12 calls of random_track finds no valid loop of this kind in its 100
@@ -110,13 +120,16 @@ class ProceduralTracks:
     generated tracks spend 0-5 % of their lap in corners under 1 m radius, ``technical``
     40 %. 0.3 (with imitation of the racing line, then PPO) trained ``ppo_generalist``, the
     first procedural policy to lap ``technical``."""
+    circuit_share: float = 0.0
+    """Share of tracks that are kart-style circuits of tight corners (``random_circuit``):
+    25-48 % of their lap under 1 m radius, the tight tracks' 5-20 %, ``technical``'s 40 %."""
 
     def __post_init__(self) -> None:
         if not (isinstance(self.every, int) and not isinstance(self.every, bool)
                 and self.every >= 1):
             raise ValueError(f"[procedural] every must be an integer >= 1 (iterations), got "
                              f"{self.every!r}")
-        for name in ("varying_share", "reverse_share", "tight_share"):
+        for name in ("varying_share", "reverse_share", "tight_share", "circuit_share"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ValueError(f"[procedural] {name} must be in [0, 1], got "
                                  f"{getattr(self, name)!r}")
@@ -135,4 +148,5 @@ class ProceduralTracks:
     def draw(self, rng: np.random.Generator) -> Track:
         """A random training track drawn from ``rng`` with these settings."""
         return random_training_track(rng, self.varying_share, self.min_radius, self.length,
-                                     self.reverse_share, self.chicanes, self.tight_share)
+                                     self.reverse_share, self.chicanes, self.tight_share,
+                                     self.circuit_share)

@@ -492,6 +492,26 @@ class TestProcedural:
         drawn = ProceduralTracks(tight_share=1.0).draw(np.random.default_rng(0))
         assert drawn.name == tight[0].name
 
+    def test_circuit_share_draws_circuits_of_tight_corners(self) -> None:
+        from h2h_racing.training.tracks import TIGHT_WIDTH, random_training_track
+
+        circuits = [random_training_track(np.random.default_rng(s), circuit_share=1.0,
+                                          tight_share=1.0) for s in range(6)]
+        for track in circuits:
+            assert track.name.startswith("circuit-")
+            assert TIGHT_WIDTH[0] <= float(track.width.min()) <= TIGHT_WIDTH[1] + 1e-9
+            # Corners of 0.5-0.7 m radius on a 0.76-0.9 m wide track: the tightest radius
+            # stays at or above 0.6 x the width (random_circuit's check).
+            assert float(np.abs(track.curvature_vertex).max()) <= 1 / (0.6 * track.width.min())
+        # A share of 0 draws nothing: the same tracks as without the option.
+        assert ([random_training_track(np.random.default_rng(s), circuit_share=0.0).name
+                 for s in range(4)]
+                == [random_training_track(np.random.default_rng(s)).name for s in range(4)])
+        with pytest.raises(ValueError, match=r"\[procedural\] circuit_share must be in"):
+            ProceduralTracks(circuit_share=1.5)
+        drawn = ProceduralTracks(circuit_share=1.0).draw(np.random.default_rng(0))
+        assert drawn.name.startswith("circuit-")
+
     def test_set_track_restarts_every_copy(self) -> None:
         from h2h_racing.training.vec_env import RacingVecEnv
 

@@ -1,0 +1,115 @@
+"""Tests for h2h_racing.track_gen_circuit: kart-style circuits of tight corners."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from h2h_racing.track_gen import (
+    border_polylines,
+    closed_length,
+    curvature,
+    find_crossings,
+    min_radius_of_curvature,
+    signed_area,
+    smooth_closed_curve,
+)
+from h2h_racing.track_gen_circuit import _has_hole, _outline, _rounded, random_circuit
+
+
+def blob(*cells: tuple[int, int]) -> np.ndarray:
+    occupied = np.zeros((5, 4), dtype=bool)
+    for x, y in cells:
+        occupied[x, y] = True
+    return occupied
+
+
+class TestOutline:
+    def test_l_shape_turns_at_its_six_corners_anticlockwise(self) -> None:
+        # Cells (0,0), (1,0), (0,1): the outline runs (0,0) (2,0) (2,1) (1,1) (1,2) (0,2),
+        # anticlockwise; (1,1) is the one right-hand (reflex) corner.
+        corners = _outline(blob((0, 0), (1, 0), (0, 1)))
+        start = int(np.flatnonzero((corners == (0, 0)).all(axis=1))[0])
+        assert np.roll(corners, -start, axis=0).tolist() == [[0, 0], [2, 0], [2, 1], [1, 1],
+                                                            [1, 2], [0, 2]]
+        assert signed_area(corners.astype(float)) == pytest.approx(3.0)
+
+    def test_cells_meeting_at_a_corner_pinch_the_outline(self) -> None:
+        # A staircase of 6 cells turns 12 times; without its step cells it pinches.
+        assert _outline(blob((0, 0), (1, 1), (1, 0), (2, 1), (2, 2), (3, 2))).shape == (12, 2)
+        assert _outline(blob((0, 0), (1, 1))).shape == (0, 2)
+
+    def test_a_ring_of_cells_has_a_hole(self) -> None:
+        ring = [(x, y) for x in range(3) for y in range(3) if (x, y) != (1, 1)]
+        assert _has_hole(blob(*ring))
+        assert not _has_hole(blob(*[cell for cell in ring if cell != (1, 2)]))
+
+
+class TestRounded:
+    def test_a_square_with_round_corners(self) -> None:
+        # A 2 m square with 0.5 m corners: four 1 m straights and a full 0.5 m circle,
+        # 4 + pi m around. The tightest radius is the corners', 4 % under at random_circuit's
+        # 0.05 m spacing: the spline through the dense points overshoots where the curvature
+        # jumps from 0 to 1 / r.
+        square = np.array([(0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (0.0, 2.0)])
+        centre = smooth_closed_curve(_rounded(square, np.full(4, 0.5)), spacing=0.05)
+        assert closed_length(centre) == pytest.approx(4 + math.pi, rel=2e-3)
+        assert min_radius_of_curvature(centre) == pytest.approx(0.5, rel=0.06)
+        # The arcs' middles sit r (1 - 1 / sqrt 2) inside the square's corners.
+        inset = 0.5 * (1 - 1 / math.sqrt(2))
+        nearest = np.linalg.norm(centre - np.array([2.0, 2.0]), axis=1).min()
+        assert nearest == pytest.approx(math.sqrt(2) * inset, abs=2e-3)
+
+    def test_a_radius_longer_than_half_a_side_is_capped(self) -> None:
+        # A 1 m x 3 m rectangle asked for 0.8 m corners gets 0.5 m (half the 1 m side): its
+        # short ends become semicircles, 2 x 2 m straights + pi m.
+        rectangle = np.array([(0.0, 0.0), (3.0, 0.0), (3.0, 1.0), (0.0, 1.0)])
+        centre = smooth_closed_curve(_rounded(rectangle, np.full(4, 0.8)), spacing=0.02)
+        assert closed_length(centre) == pytest.approx(4 + math.pi, rel=2e-3)
+
+
+class TestRandomCircuit:
+    def test_circuits_are_valid_tight_and_anticlockwise(self) -> None:
+        width = 0.8
+        shares = []
+        for seed in range(12):
+            spec = random_circuit(np.random.default_rng(seed), width=width, chicanes=(0, 2))
+            assert spec.name.startswith("circuit-")
+            assert signed_area(spec.centre) > 0
+            assert min_radius_of_curvature(spec.centre) >= 0.6 * width
+            np.testing.assert_array_equal(spec.width_left, np.full(len(spec.centre), 0.4))
+            left, right = border_polylines(spec.centre, spec.width_left, spec.width_right)
+            assert not len(find_crossings(spec.centre))
+            assert not len(find_crossings(left, right))
+            shares.append(float((np.abs(curvature(spec.centre)) > 1.0).mean()))
+        # Every corner is a right-angle arc of 0.5-0.7 m radius (0.8-1.1 m of lap under 1 m
+        # radius), 4-14 of them a lap. The smooth tight tracks of training.tracks spend 5-20 %
+        # of their lap under 1 m radius, technical 40 %.
+        assert min(shares) > 0.15
+        assert np.mean(shares) > 0.3
+
+    def test_same_seed_same_circuit(self) -> None:
+        a = random_circuit(np.random.default_rng(4))
+        b = random_circuit(np.random.default_rng(4))
+        c = random_circuit(np.random.default_rng(5))
+        assert a.name == b.name != c.name
+        np.testing.assert_array_equal(a.centre, b.centre)
+
+    @pytest.mark.parametrize(("kwargs", "message"), [
+        ({"corner_radius": (0.3, 0.7)}, r"corner_radius = \(low, high\) with width / 2 = 0.38"),
+        ({"cell": (0.9, 2.0)}, r"cell = \(low, high\) with width \+ 0.25 = 1.01"),
+        ({"cells": (2, 6)}, r"cells = \(fewest, most\) with 4 <= fewest"),
+        ({"width": -1.0}, r"width > 0"),
+        ({"max_tries": 0}, r"max_tries >= 1"),
+    ])
+    def test_bad_arguments_are_named(self, kwargs: dict, message: str) -> None:
+        with pytest.raises(ValueError, match=message):
+            random_circuit(np.random.default_rng(0), **kwargs)
+
+    def test_no_circuit_found_says_what_was_rejected(self) -> None:
+        # Cells barely wider than the track and 8 chicanes a lap: nothing passes in 2 tries.
+        with pytest.raises(RuntimeError, match=r"no valid circuit in 2 tries \(rejected: "):
+            random_circuit(np.random.default_rng(0), cell=(1.01, 1.01), chicanes=(8, 8),
+                           max_tries=2)
