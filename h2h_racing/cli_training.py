@@ -66,17 +66,15 @@ def _train_config(args: argparse.Namespace) -> object:
     if args.config is None and getattr(args, "race_type", None) in (None, "head_to_head"):
         data = copy.deepcopy(HEAD_TO_HEAD)
     if args.config is not None:
-        import tomllib
-
         from h2h_racing.configs import resolve_config
+        from h2h_racing.training.config_file import read_train_toml
 
         try:
-            with open(resolve_config(args.config, "train"), "rb") as handle:
-                data = tomllib.load(handle)
+            data = read_train_toml(resolve_config(args.config, "train"))
         except FileNotFoundError as err:
             raise SystemExit(f"error: {err}") from None
-        except tomllib.TOMLDecodeError as err:
-            raise SystemExit(f"error: --config {args.config!r} is not valid TOML: {err}") from None
+        except ValueError as err:
+            raise SystemExit(f"error: --config {args.config!r}: {err}") from None
     flags = {"track": "track", "obs": "observations", "rules": "rules", "init": "init",
              "max_std": "max_std", "envs": "num_envs", "seed": "seed",
              "reward_function": "reward_function", "model_metadata": "model_metadata",

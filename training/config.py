@@ -22,7 +22,8 @@ from h2h_racing.training.device import check_device_name
 from h2h_racing.training.imitation import SCRIPTED_TEACHERS, ImitationConfig
 from h2h_racing.training.race_settings import RaceSettings
 from h2h_racing.training.teachers import load_teacher
-from h2h_racing.training.toml_types import build_tables, read_toml
+from h2h_racing.training.config_file import read_train_toml
+from h2h_racing.training.toml_types import build_tables
 from h2h_racing.training.tracks import ProceduralTracks
 from h2h_racing.training.vec_env import ACTOR_GROUPS, OBSERVATIONS, PoolOpponent, RacingVecEnv
 
@@ -327,8 +328,9 @@ class TrainConfig:
     @classmethod
     def from_toml(cls, path: str | Path) -> TrainConfig:
         """Read a training config file (see ``from_dict``; e.g.
-        ``policies/trained/ppo_generalist/imitate.toml``)."""
-        return cls.from_dict(read_toml(path), source=str(path))
+        ``policies/trained/ppo_generalist/imitate.toml``), with the file it ``extends``
+        (``read_train_toml``)."""
+        return cls.from_dict(read_train_toml(path), source=str(path))
 
     def opponents(self) -> list[str]:
         """The drivers named by ``opponent`` (empty without one)."""
