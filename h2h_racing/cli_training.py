@@ -248,8 +248,9 @@ def add_training_commands(sub: argparse._SubParsersAction) -> None:
                             "training step by name: ppo_generalist/imitate, "
                             "ppo_generalist/finetune, racing_line_student/imitate, "
                             "camera_racer/imitate, obstacle_generalist/imitate, "
-                            "obstacle_generalist/anneal, obstacle_generalist/tight; flags given "
-                            "override them")
+                            "obstacle_generalist/anneal, obstacle_generalist/tight, "
+                            "obstacle_generalist/circuits, obstacle_generalist/settle; flags "
+                            "given override them")
     train.add_argument("--track", default=None,
                        help="catalogue name, track file, random:<seed>, or 'procedural' (a new "
                             "random track every 10 iterations; a config's [procedural] table "

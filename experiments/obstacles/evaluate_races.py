@@ -9,9 +9,9 @@ default ``../shared/data/deepracer_tracks/*.npy`` beside the clone, README's Tes
 ``--routes none`` skips them):
 
 - ``object_avoidance``: 3-lap races, one car, DeepRacer's default 6 boxes at randomised places
-  (seeds 1-3; race rules: a crash costs a penalty and a reset);
+  (seeds 1-3, or `--seeds`; race rules: a crash costs a penalty and a reset);
 - ``head_to_bot``: 3-lap races against the default bots (3 cars at 0.75 m/s on alternating
-  lanes, changing lanes every 3-5 s; seeds 1-3);
+  lanes, changing lanes every 3-5 s; the same seeds);
 - ``time_trial``: one 3-lap time trial (seed 0): the best lap, and its ratio to the
   ``--reference`` policy's best lap on that track (``ppo_generalist``).
 
@@ -179,6 +179,7 @@ def evaluate(spec: str, tracks: list[str], reference: str | None,
 
 
 def main(argv: list[str] | None = None) -> int:
+    global SEEDS
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("policies", nargs="+", help="drivers, shipped policies or policy.pt")
     parser.add_argument("--tracks", nargs="+", default=None, help="default: the catalogue")
@@ -187,7 +188,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--reference", default="ppo_generalist",
                         help="policy whose time-trial best lap the ratios divide by")
     parser.add_argument("--json", type=Path, default=None, help="write every figure here")
+    parser.add_argument("--seeds", nargs="+", type=int, default=list(SEEDS),
+                        help="race seeds of the object-avoidance and head-to-bot races "
+                             "(default: %(default)s)")
     args = parser.parse_args(argv)
+    SEEDS = tuple(args.seeds)
     tracks = args.tracks or list_tracks()
     if args.routes != "none" and Path(args.routes).is_dir():
         tracks += [str(path) for path in sorted(Path(args.routes).glob("*.npy"))]
