@@ -249,8 +249,8 @@ def add_training_commands(sub: argparse._SubParsersAction) -> None:
                             "ppo_generalist/finetune, racing_line_student/imitate, "
                             "camera_racer/imitate, obstacle_generalist/imitate, "
                             "obstacle_generalist/anneal, obstacle_generalist/tight, "
-                            "obstacle_generalist/circuits, obstacle_generalist/settle; flags "
-                            "given override them")
+                            "obstacle_generalist/circuits, obstacle_generalist/settle, "
+                            "obstacle_generalist/bots; flags given override them")
     train.add_argument("--track", default=None,
                        help="catalogue name, track file, random:<seed>, or 'procedural' (a new "
                             "random track every 10 iterations; a config's [procedural] table "

@@ -21,7 +21,8 @@ def test_shipped_league_configs_are_the_product_ones() -> None:
 def test_shipped_training_configs_are_named_by_policy_and_step() -> None:
     shipped = shipped_configs("train")
     assert sorted(shipped) == ["camera_racer/imitate", "obstacle_generalist/anneal",
-                               "obstacle_generalist/circuits", "obstacle_generalist/imitate",
+                               "obstacle_generalist/bots", "obstacle_generalist/circuits",
+                               "obstacle_generalist/imitate",
                                "obstacle_generalist/settle", "obstacle_generalist/tight",
                                "ppo_generalist/finetune", "ppo_generalist/imitate",
                                "racing_line_student/imitate"]
@@ -51,8 +52,9 @@ def test_unknown_names_list_the_shipped_ones() -> None:
         resolve_config("finishing", "league")
     # A training config is not a league config, and the other way round.
     with pytest.raises(FileNotFoundError, match="shipped: camera_racer/imitate, "
-                       "obstacle_generalist/anneal, obstacle_generalist/circuits, "
-                       "obstacle_generalist/imitate, obstacle_generalist/settle, "
+                       "obstacle_generalist/anneal, obstacle_generalist/bots, "
+                       "obstacle_generalist/circuits, obstacle_generalist/imitate, "
+                       "obstacle_generalist/settle, "
                        "obstacle_generalist/tight, ppo_generalist/finetune, "
                        "ppo_generalist/imitate, racing_line_student/imitate"):
         resolve_config("smoke", "train")
