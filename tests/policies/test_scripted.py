@@ -225,6 +225,29 @@ class TestBotAvoidance:
         assert offset[0] == pytest.approx(0.25 - (0.1961 + 0.15))
         assert speed[0] == pytest.approx(0.5 * (0.8 - 0.3235 - 0.1) / 1.2)
 
+    def test_a_bot_changing_lanes_is_passed_clear_of_its_new_lane(self) -> None:
+        import sys
+
+        from h2h_racing.config import EnvConfig
+        from h2h_racing.core import RaceCore
+
+        track = sys.modules["conftest"].circle_track()  # R = 3 m, half-width 0.5 m
+        core = RaceCore(EnvConfig(track=track.name, num_cars=1, num_bots=1,
+                                  bot_lane_change=False), track)
+        core.reset(seed=0)
+        core.s[0, 0], core.d[0, 0], core.distance[0, 0] = 1.2, 0.25, 1.2
+        # The same bot, just starting a change from the inner lane (+0.25) to the outer one:
+        # its new lane is -1 x half the 0.5 m half-width = -0.25, so it will sweep
+        # [-0.25, +0.25]. The pass on the right (to -0.0961 m, above) would cross its path.
+        core.bot_lane[0, 0] = -1.0
+        offset, speed = RacingLine()._avoid(core, 0, np.array([1.6]), np.array([0.25]),
+                                            np.array([3.0]))
+        # Room beside that span: 0.5 - 0.25 = 0.25 m on each side; a tie goes left, where a
+        # car width + 0.15 m beyond +0.25 is outside the track: the target stops at the
+        # margin, 0.5 - 0.12 = 0.38 m. The line at +0.25 lies in the span: follow, as above.
+        assert offset[0] == pytest.approx(0.38)
+        assert speed[0] == pytest.approx(0.5 * (0.8 - 0.3235 - 0.1) / 1.2)
+
 
 def test_random_driver_needs_a_seed_or_a_generator() -> None:
     from h2h_racing.policies import make_driver
