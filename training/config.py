@@ -18,11 +18,11 @@ from typing import Any, Literal
 from h2h_racing.config import EnvConfig, RaceRules, RewardConfig
 from h2h_racing.config_sensors import MAX_FRAME_STACK
 from h2h_racing.training.camera_network import check_camera, cnn_config
+from h2h_racing.training.config_file import read_train_toml
 from h2h_racing.training.device import check_device_name
 from h2h_racing.training.imitation import SCRIPTED_TEACHERS, ImitationConfig
 from h2h_racing.training.race_settings import RaceSettings
 from h2h_racing.training.teachers import load_teacher
-from h2h_racing.training.config_file import read_train_toml
 from h2h_racing.training.toml_types import build_tables
 from h2h_racing.training.tracks import ProceduralTracks
 from h2h_racing.training.vec_env import ACTOR_GROUPS, OBSERVATIONS, PoolOpponent, RacingVecEnv
