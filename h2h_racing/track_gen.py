@@ -274,6 +274,22 @@ def _add_chicanes(rng: np.random.Generator, centre: FloatArray, count: int) -> F
     return centre + left_normals(centre) * offset[:, None]
 
 
+def _rejection(centre: FloatArray, width: float, min_radius: float) -> str | None:
+    """Why a candidate loop of a random track is refused, or None if it is valid: ``"radius"``
+    (a corner tighter than ``min_radius`` [m]), ``"clearance"`` (parts more than ``3 * width``
+    apart along the lap closer than ``width + 0.25`` m: overlapping tarmac, no room for the
+    walls) or ``"crossing"`` (the centre line or the borders, ``width / 2`` each side,
+    self-intersect)."""
+    if min_radius_of_curvature(centre) < min_radius:
+        return "radius"
+    if min_clearance(centre[::2], exclude_arc=3 * width) < width + 0.25:
+        return "clearance"
+    left, right = border_polylines(centre, 0.5 * width, 0.5 * width)
+    if len(find_crossings(centre)) or len(find_crossings(left, right)):
+        return "crossing"
+    return None
+
+
 def _width_profile(rng: np.random.Generator, count: int, narrowest: float, widest: float) -> FloatArray:
     """A smooth periodic width profile over ``count`` vertices of a loop, spanning exactly
     [``narrowest``, ``widest``] [m]: ``g(u) = sum_k a_k cos(2 pi k u + phi_k)`` for k = 1..K, K in
@@ -373,7 +389,6 @@ def random_track(
     if not 0 < r_low <= r_high:
         raise ValueError(f"Expected radius_range = (low, high) with 0 < low <= high, got {radius_range}")
 
-    clearance = width + 0.25
     rejections = {"radius": 0, "clearance": 0, "crossing": 0}
     for _ in range(max_tries):
         num_points = int(rng.integers(8, 15))
@@ -389,15 +404,9 @@ def random_track(
         # No draw without chicanes: older arguments give the same tracks.
         if most > 0:
             centre = _add_chicanes(rng, centre, int(rng.integers(fewest, most + 1)))
-        if min_radius_of_curvature(centre) < min_radius:
-            rejections["radius"] += 1
-            continue
-        if min_clearance(centre[::2], exclude_arc=3 * width) < clearance:
-            rejections["clearance"] += 1
-            continue
-        left, right = border_polylines(centre, half_width, half_width)
-        if len(find_crossings(centre)) or len(find_crossings(left, right)):
-            rejections["crossing"] += 1
+        rejected = _rejection(centre, width, min_radius)
+        if rejected:
+            rejections[rejected] += 1
             continue
         centre = _start_on_straight(centre, window=1.0)
         digest = hashlib.sha256(np.round(centre, 4).tobytes()).hexdigest()[:8]

@@ -21,16 +21,11 @@ import numpy.typing as npt
 from h2h_racing.track_gen import (
     TrackSpec,
     _add_chicanes,
+    _rejection,
     _start_on_straight,
     smooth_closed_curve,
 )
-from h2h_racing.track_metrics import (
-    border_polylines,
-    closed_length,
-    find_crossings,
-    min_clearance,
-    min_radius_of_curvature,
-)
+from h2h_racing.track_metrics import closed_length, min_radius_of_curvature
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -123,15 +118,9 @@ def random_circuit(
         # No draw without chicanes, as in random_track.
         if chicanes[1] > 0:
             centre = _add_chicanes(rng, centre, int(rng.integers(chicanes[0], chicanes[1] + 1)))
-        if min_radius_of_curvature(centre) < 0.6 * width:
-            rejections["radius"] += 1
-            continue
-        if min_clearance(centre[::2], exclude_arc=3 * width) < width + 0.25:
-            rejections["clearance"] += 1
-            continue
-        left, right = border_polylines(centre, 0.5 * width, 0.5 * width)
-        if len(find_crossings(centre)) or len(find_crossings(left, right)):
-            rejections["crossing"] += 1
+        rejected = _rejection(centre, width, 0.6 * width)
+        if rejected:
+            rejections[rejected] += 1
             continue
         centre = _start_on_straight(centre, window=0.5)
         digest = hashlib.sha256(np.round(centre, 4).tobytes()).hexdigest()[:8]

@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 
 import h2h_racing
+from h2h_racing.config import EnvConfig
+from h2h_racing.core import RaceCore
 from h2h_racing.policies import (
     Blocker,
     PurePursuit,
@@ -202,22 +204,24 @@ class TestActionMapping:
 class TestBotAvoidance:
     """RacingLine treats bot cars like cars when it keeps clear (by hand on the circle)."""
 
-    def test_bot_ahead_on_the_line_is_passed_and_followed(self) -> None:
+    @staticmethod
+    def car_behind_a_bot() -> RaceCore:
+        """One car and one bot on the circle track (R = 3 m, half-width 0.5 m): the bot starts
+        at s = 2.0 on the inner lane (d = +0.25), at rest; the car is on that lane 0.8 m
+        behind it."""
         import sys
 
-        from h2h_racing.config import EnvConfig
-        from h2h_racing.core import RaceCore
-
-        track = sys.modules["conftest"].circle_track()  # R = 3 m, half-width 0.5 m
+        track = sys.modules["conftest"].circle_track()
         core = RaceCore(EnvConfig(track=track.name, num_cars=1, num_bots=1,
                                   bot_lane_change=False), track)
         core.reset(seed=0)
-        # The bot starts at s = 2.0 on the inner lane (d = +0.25), at rest; put the car on
-        # that lane 0.8 m behind it.
         core.s[0, 0], core.d[0, 0], core.distance[0, 0] = 1.2, 0.25, 1.2
-        driver = RacingLine()
-        offset, speed = driver._avoid(core, 0, np.array([1.6]), np.array([0.25]),
-                                      np.array([3.0]))
+        return core
+
+    def test_bot_ahead_on_the_line_is_passed_and_followed(self) -> None:
+        core = self.car_behind_a_bot()
+        offset, speed = RacingLine()._avoid(core, 0, np.array([1.6]), np.array([0.25]),
+                                            np.array([3.0]))
         # The bot overlaps the line 0.8 m ahead (> 0.3235 + 0.15: not alongside). Room: 0.5 -
         # 0.25 = 0.25 m on its left, 0.25 + 0.5 = 0.75 m on its right -> pass on the right, a
         # car width + 0.15 = 0.3461 m from it: 0.25 - 0.3461 = -0.0961 m (inside the 0.12 m
@@ -226,16 +230,7 @@ class TestBotAvoidance:
         assert speed[0] == pytest.approx(0.5 * (0.8 - 0.3235 - 0.1) / 1.2)
 
     def test_a_bot_changing_lanes_is_passed_clear_of_its_new_lane(self) -> None:
-        import sys
-
-        from h2h_racing.config import EnvConfig
-        from h2h_racing.core import RaceCore
-
-        track = sys.modules["conftest"].circle_track()  # R = 3 m, half-width 0.5 m
-        core = RaceCore(EnvConfig(track=track.name, num_cars=1, num_bots=1,
-                                  bot_lane_change=False), track)
-        core.reset(seed=0)
-        core.s[0, 0], core.d[0, 0], core.distance[0, 0] = 1.2, 0.25, 1.2
+        core = self.car_behind_a_bot()
         # The same bot, just starting a change from the inner lane (+0.25) to the outer one:
         # its new lane is -1 x half the 0.5 m half-width = -0.25, so it will sweep
         # [-0.25, +0.25]. The pass on the right (to -0.0961 m, above) would cross its path.
