@@ -172,6 +172,10 @@ class TrainConfig:
     """Camera frames per observation, oldest first, one step (1/15 s) apart: the camera's
     ``frame_stack`` (a new episode repeats its first frame). More than one gives the CNN the
     recent past, where the track went after it left the view in a tight corner."""
+    camera_hfov: float = 64.7
+    """Horizontal field of view of the camera [deg]: DeepRacer's simulated camera has 64.7
+    deg (the default), the physical car's lens 120 deg. A wider view keeps a tight corner's
+    exit in the image."""
     camera_stereo: bool = False
     """DeepRacer's ``STEREO_CAMERAS``: two cameras 6 cm apart, each frame two channels (left,
     right), instead of the one front camera."""
@@ -301,6 +305,11 @@ class TrainConfig:
             raise ValueError(f"TrainConfig.camera_frames must be an int in [1, "
                              f"{MAX_FRAME_STACK}] (frames per camera observation), got "
                              f"{self.camera_frames!r}")
+        if (isinstance(self.camera_hfov, bool) or not isinstance(self.camera_hfov, (int, float))
+                or not 1.0 <= self.camera_hfov <= 170.0):
+            raise ValueError(f"TrainConfig.camera_hfov must be a number in [1, 170] (the "
+                             f"camera's horizontal field of view in degrees), got "
+                             f"{self.camera_hfov!r}")
         if not isinstance(self.init_fresh_slots, bool) or (self.init_fresh_slots
                                                            and self.init is None):
             raise ValueError(f"TrainConfig.init_fresh_slots must be true or false, and true "
@@ -352,6 +361,7 @@ class TrainConfig:
         camera = dataclasses.replace(EnvConfig().camera, width=self.camera_size[0],
                                      height=self.camera_size[1],
                                      frame_stack=self.camera_frames,
+                                     hfov_deg=self.camera_hfov,
                                      stereo=self.camera_stereo)
         track = "speedway" if self.track == PROCEDURAL else self.track
         rules_type = self.race.rules_type(self.num_cars)

@@ -230,3 +230,29 @@ class TestStereo:
         driver.reset(env.core)
         assert driver._observe(env.core, 0)["camera"].shape == (1, 2, 16, 24)
         assert np.isfinite(driver.act(env.core, 0)).all()
+
+
+class TestFieldOfView:
+    """``camera_hfov``: the camera's horizontal field of view, in training and driving."""
+
+    @pytest.mark.parametrize("hfov", [0.5, 171.0, True, "120"])
+    def test_bad_values_rejected(self, hfov: object) -> None:
+        with pytest.raises(ValueError, match=r"camera_hfov must be a number in \[1, 170\]"):
+            TrainConfig(camera_hfov=hfov)  # type: ignore[arg-type]
+
+    def test_default_is_deepracers_simulated_camera(self) -> None:
+        assert TrainConfig().env_config().camera.hfov_deg == 64.7
+
+    def test_trained_driver_renders_its_own_view(self) -> None:
+        config = dataclasses.replace(SMALL, camera_hfov=120.0)
+        runner = train(config, iterations=1)
+        driver = TrainedPolicy.from_payload(policy_payload(runner, config), name="wide")
+        env = _env_after_a_few_steps()
+        driver.reset(env.core)
+        # fx = (W / 2) / tan(hfov / 2) = 12 / tan(60 deg) = 6.928 px on a 24 px wide image.
+        assert driver._camera.config.focal_px == pytest.approx(12.0 / 3.0 ** 0.5)
+        narrow = TrainedPolicy.from_payload(policy_payload(train(SMALL, iterations=1), SMALL),
+                                            name="narrow")
+        narrow.reset(env.core)
+        assert not np.array_equal(driver._observe(env.core, 0)["camera"],
+                                  narrow._observe(env.core, 0)["camera"])
