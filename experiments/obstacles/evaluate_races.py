@@ -50,17 +50,19 @@ TARGETS = {"finished": 0.9, "crashes_per_lap": 0.5, "resets_per_lap": 1.0,
 """Issue 22's targets for obstacle_generalist."""
 
 
-def parse_driver(spec: str) -> tuple[str, dict[str, float]]:
-    """``"name:key=value,key=value"`` -> (name, options); a path or a bare name has none."""
+def parse_driver(spec: str) -> tuple[str, dict[str, float | bool]]:
+    """``"name:key=value,key=value"`` -> (name, options); a path or a bare name has none.
+    Values are numbers, or ``true`` / ``false``."""
     if ":" not in spec or spec.endswith(".pt"):
         return spec, {}
     name, _, rest = spec.partition(":")
-    options: dict[str, float] = {}
+    options: dict[str, float | bool] = {}
     for item in rest.split(","):
         key, eq, value = item.partition("=")
         if not eq:
             raise SystemExit(f"driver options must read key=value, got {item!r} in {spec!r}")
-        options[key.strip()] = float(value)
+        flag = {"true": True, "false": False}.get(value.strip())
+        options[key.strip()] = float(value) if flag is None else flag
     return name, options
 
 
