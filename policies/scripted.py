@@ -38,11 +38,6 @@ from h2h_racing.policies.obstacles import avoid_obstacles
 from h2h_racing.policies.racing_line import GRAVITY, RaceLine, compute_race_line
 from h2h_racing.track import Track
 
-BOT_SETTLED = 0.01
-"""A bot within this of a lane's offset is on that lane (``RacingLine(knows_bot_lane=False)``)
-[m]: the cosine blend of a lane change (h2h_racing.bots) moves a bot 0.01 m off a 0.5 m lane
-gap in its first 9 % of the change, 0.12 s at DeepRacer's 1 m and 0.75 m/s."""
-
 FloatArray = npt.NDArray[np.float64]
 ActionArray = npt.NDArray[np.float32]
 
@@ -224,10 +219,6 @@ class RacingLine:
         box_bend_grip: Fraction of ``mu g`` round a box on a bend (``bend_grip``). A teacher
             for a learner that copies it within some error keeps wider margins: 0.2 m, 1.8
             m/s and 0.35 (experiments/obstacles/README.md).
-        knows_bot_lane: Whether a bot changing lanes is known to head for its new lane
-            (the simulator's plan). False: a bot off its lane's offset may be going either
-            way and occupies both lanes, which is all that a driver seeing only where the
-            bot is (a state student, one observation) can know.
     """
 
     name = "racing_line"
@@ -236,19 +227,15 @@ class RacingLine:
                  speed_preview: float = 0.3, lookahead_base: float = 0.35,
                  lookahead_gain: float = 0.15, follow_gap: float = 1.2,
                  closing_speed: float = 0.5, box_clearance: float = 0.1,
-                 box_speed_cap: float = 2.2, box_bend_grip: float = 0.6,
-                 knows_bot_lane: bool = True) -> None:
+                 box_speed_cap: float = 2.2, box_bend_grip: float = 0.6) -> None:
         if not 0 < grip_factor <= 1:
             raise ValueError(f"grip_factor must be in (0, 1], got {grip_factor}")
         if not (box_clearance >= 0 and box_speed_cap > 0 and 0 < box_bend_grip <= 1):
             raise ValueError(f"box_clearance must be >= 0 [m], box_speed_cap > 0 [m/s] and "
                              f"box_bend_grip in (0, 1], got {box_clearance}, {box_speed_cap} "
                              f"and {box_bend_grip}")
-        if not isinstance(knows_bot_lane, bool):
-            raise ValueError(f"knows_bot_lane must be true or false, got {knows_bot_lane!r}")
         self.grip_factor = grip_factor
         self.margin = margin
-        self.knows_bot_lane = knows_bot_lane
         self.speed_preview = speed_preview
         self.lookahead_base = lookahead_base
         self.lookahead_gain = lookahead_gain
@@ -295,8 +282,7 @@ class RacingLine:
         A car ahead within ``follow_gap`` that overlaps the line is passed on the side with
         more room, and the speed is capped at its speed plus a closing speed that shrinks
         to zero as the gap closes, so a pass that finds no room becomes a follow. A bot
-        changing lanes occupies every offset between its own and its new lane's (both lanes
-        without ``knows_bot_lane``).
+        changing lanes occupies every offset between its own and its new lane's.
         """
         params = core.config.car
         gap = core.distance - core.distance[:, car : car + 1]  # (E, N), > 0: ahead
@@ -316,20 +302,9 @@ class RacingLine:
             speed_of = np.concatenate([core.speed, core.bot_speed], axis=1)
             # A lane's offset is half the half-width on its side (bots.move_kernel).
             bot_left, bot_right = core.track.half_widths_at(core.bot_s)
-            if self.knows_bot_lane:
-                lane_d = core.bot_lane * 0.5 * np.where(core.bot_lane >= 0, bot_left,
-                                                        bot_right)
-                bot_low, bot_high = np.minimum(core.bot_d, lane_d), np.maximum(core.bot_d, lane_d)
-            else:
-                # Seen from where it is alone, a bot between the lanes may be going either
-                # way: it occupies both lanes until it is back on one's offset.
-                left_lane, right_lane = 0.5 * bot_left, -0.5 * bot_right
-                settled = ((np.abs(core.bot_d - left_lane) < BOT_SETTLED)
-                           | (np.abs(core.bot_d - right_lane) < BOT_SETTLED))
-                bot_low = np.where(settled, core.bot_d, right_lane)
-                bot_high = np.where(settled, core.bot_d, left_lane)
-            low_of = np.concatenate([core.d, bot_low], axis=1)
-            high_of = np.concatenate([core.d, bot_high], axis=1)
+            lane_d = core.bot_lane * 0.5 * np.where(core.bot_lane >= 0, bot_left, bot_right)
+            low_of = np.concatenate([core.d, np.minimum(core.bot_d, lane_d)], axis=1)
+            high_of = np.concatenate([core.d, np.maximum(core.bot_d, lane_d)], axis=1)
         near = others & (gap > -params.length - 0.15) & (gap < self.follow_gap)
         if not near.any():
             return offset, speed

@@ -33,11 +33,10 @@ class ImitationConfig:
     (``racing_line`` laps every shipped and generated track) to a state policy before PPO
     fine-tunes it (``init``), as AlphaStar's agents start from supervised learning. None
     trains with PPO."""
-    options: dict[str, float | bool] = field(default_factory=dict)
+    options: dict[str, float] = field(default_factory=dict)
     """Constructor arguments of the scripted driver that labels actions (a scripted
     ``teacher`` or the ``driver``), e.g. ``{"grip_factor": 0.6, "margin": 0.2}`` for a
-    ``RacingLine`` that corners at 60 % of the grip and keeps 0.2 m from the borders (numbers,
-    or true / false for a switch such as ``knows_bot_lane``)."""
+    ``RacingLine`` that corners at 60 % of the grip and keeps 0.2 m from the borders."""
     driver: str | None = None
     """A scripted driver (``SCRIPTED_TEACHERS``) that PPO's actor is kept near with ``coef``."""
     coef: float = 0.0

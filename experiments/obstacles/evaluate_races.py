@@ -50,19 +50,17 @@ TARGETS = {"finished": 0.9, "crashes_per_lap": 0.5, "resets_per_lap": 1.0,
 """Issue 22's targets for obstacle_generalist."""
 
 
-def parse_driver(spec: str) -> tuple[str, dict[str, float | bool]]:
-    """``"name:key=value,key=value"`` -> (name, options); a path or a bare name has none.
-    Values are numbers, or ``true`` / ``false``."""
+def parse_driver(spec: str) -> tuple[str, dict[str, float]]:
+    """``"name:key=value,key=value"`` -> (name, options); a path or a bare name has none."""
     if ":" not in spec or spec.endswith(".pt"):
         return spec, {}
     name, _, rest = spec.partition(":")
-    options: dict[str, float | bool] = {}
+    options: dict[str, float] = {}
     for item in rest.split(","):
         key, eq, value = item.partition("=")
         if not eq:
             raise SystemExit(f"driver options must read key=value, got {item!r} in {spec!r}")
-        flag = {"true": True, "false": False}.get(value.strip())
-        options[key.strip()] = float(value) if flag is None else flag
+        options[key.strip()] = float(value)
     return name, options
 
 

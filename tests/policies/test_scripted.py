@@ -243,34 +243,6 @@ class TestBotAvoidance:
         assert offset[0] == pytest.approx(0.38)
         assert speed[0] == pytest.approx(0.5 * (0.8 - 0.3235 - 0.1) / 1.2)
 
-    def test_a_driver_that_sees_only_where_a_bot_is_keeps_clear_of_both_lanes(self) -> None:
-        core = self.car_behind_a_bot()
-        # The bot is on its way in from the outer lane (-0.25): at d = +0.1, heading for +0.25.
-        core.bot_d[0, 0], core.bot_lane[0, 0] = 0.1, 1.0
-        knowing = RacingLine()._avoid(core, 0, np.array([1.6]), np.array([0.25]),
-                                      np.array([3.0]))[0]
-        seeing = RacingLine(knows_bot_lane=False)._avoid(core, 0, np.array([1.6]),
-                                                         np.array([0.25]), np.array([3.0]))[0]
-        # Knowing its plan, the span is [0.1, 0.25]: room 0.25 m on its left, 0.6 m on its
-        # right -> pass 0.3461 m right of 0.1: -0.2461 m.
-        assert knowing[0] == pytest.approx(0.1 - 0.3461, abs=1e-4)
-        # Seeing only d = 0.1 (neither lane's +-0.25), it may go either way: the span is both
-        # lanes, [-0.25, 0.25], as in the test above -> the left margin, 0.38 m.
-        assert seeing[0] == pytest.approx(0.38)
-
-    def test_a_bot_on_its_lane_is_a_point_to_a_driver_that_sees_only_where_it_is(self) -> None:
-        core = self.car_behind_a_bot()
-        # Starting a change to the outer lane but still on the inner one's +0.25: nothing
-        # shows yet, so the pass goes right as for a bot that keeps its lane (first test).
-        core.bot_lane[0, 0] = -1.0
-        offset, _ = RacingLine(knows_bot_lane=False)._avoid(
-            core, 0, np.array([1.6]), np.array([0.25]), np.array([3.0]))
-        assert offset[0] == pytest.approx(0.25 - (0.1961 + 0.15))
-
-    def test_knows_bot_lane_must_be_a_bool(self) -> None:
-        with pytest.raises(ValueError, match="knows_bot_lane must be true or false"):
-            RacingLine(knows_bot_lane=0.0)  # type: ignore[arg-type]
-
 
 def test_random_driver_needs_a_seed_or_a_generator() -> None:
     from h2h_racing.policies import make_driver

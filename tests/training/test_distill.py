@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -195,14 +194,6 @@ class TestScriptedTeacher:
             ImitationConfig(teacher="racing_line", options={"grip_factor": 1.5})
         with pytest.raises(ValueError, match="are arguments of a scripted teacher"):
             ImitationConfig(teacher="ppo_generalist", options={"margin": 0.2})
-
-    def test_options_take_switches_from_toml(self) -> None:
-        text = ('[imitation]\nteacher = "racing_line"\n'
-                'options = { margin = 0.2, knows_bot_lane = false }\n')
-        config = TrainConfig.from_dict(tomllib.loads(text), source="t.toml")
-        assert config.imitation.expert().knows_bot_lane is False
-        with pytest.raises(ValueError, match="each value a number or true or false"):
-            TrainConfig.from_dict(tomllib.loads(text.replace("false", '"no"')), source="t.toml")
 
     def test_teacher_refuses_other_groups(self) -> None:
         from h2h_racing.training.teachers import ScriptedTeacher
