@@ -20,6 +20,8 @@ def _camera_fail(name: str, value: object, expected: str) -> None:
 
 MAX_FRAME_STACK = 32
 """Most camera frames one observation stacks (``CameraConfig.frame_stack``)."""
+HFOV_RANGE_DEG = (1.0, 170.0)
+"""Allowed horizontal fields of view (``CameraConfig.hfov_deg``) [deg]."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -85,8 +87,9 @@ class CameraConfig:
             _camera_fail("forward_m", self.forward_m, "a finite number")
         if not -80.0 <= self.pitch_deg <= 80.0:
             _camera_fail("pitch_deg", self.pitch_deg, "in [-80, 80] deg")
-        if not 1.0 <= self.hfov_deg <= 170.0:
-            _camera_fail("hfov_deg", self.hfov_deg, "in [1, 170] deg")
+        if not HFOV_RANGE_DEG[0] <= self.hfov_deg <= HFOV_RANGE_DEG[1]:
+            _camera_fail("hfov_deg", self.hfov_deg,
+                         f"in [{HFOV_RANGE_DEG[0]:g}, {HFOV_RANGE_DEG[1]:g}] deg")
         if self.interpolation not in ("linear", "nearest"):
             _camera_fail("interpolation", self.interpolation, "'linear' or 'nearest'")
 

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from h2h_racing.config import EnvConfig, RaceRules, RewardConfig
-from h2h_racing.config_sensors import MAX_FRAME_STACK
+from h2h_racing.config_sensors import HFOV_RANGE_DEG, MAX_FRAME_STACK
 from h2h_racing.training.camera_network import check_camera, cnn_config
 from h2h_racing.training.config_file import read_train_toml
 from h2h_racing.training.device import check_device_name
@@ -305,10 +305,11 @@ class TrainConfig:
             raise ValueError(f"TrainConfig.camera_frames must be an int in [1, "
                              f"{MAX_FRAME_STACK}] (frames per camera observation), got "
                              f"{self.camera_frames!r}")
+        low, high = HFOV_RANGE_DEG
         if (isinstance(self.camera_hfov, bool) or not isinstance(self.camera_hfov, (int, float))
-                or not 1.0 <= self.camera_hfov <= 170.0):
-            raise ValueError(f"TrainConfig.camera_hfov must be a number in [1, 170] (the "
-                             f"camera's horizontal field of view in degrees), got "
+                or not low <= self.camera_hfov <= high):
+            raise ValueError(f"TrainConfig.camera_hfov must be a number in [{low:g}, {high:g}] "
+                             f"(the camera's horizontal field of view in degrees), got "
                              f"{self.camera_hfov!r}")
         if not isinstance(self.init_fresh_slots, bool) or (self.init_fresh_slots
                                                            and self.init is None):
