@@ -4,6 +4,7 @@
     python benchmarks/bench_train.py --quick          # a smoke run of every row
     python benchmarks/bench_train.py --camera         # also the camera rows (issue 21)
     python benchmarks/bench_train.py --cpu-time       # thread CPU time (a shared machine)
+    python benchmarks/bench_train.py --camera --device cuda --only today   # GPU rows too
 
 What is timed: rsl-rl PPO iterations exactly as ``h2h-racing train`` runs them
 (``training.config.TrainConfig.rsl_rl_dict``: state observations, an MLP actor and critic,
@@ -42,7 +43,13 @@ With ``--camera`` also camera rows (issue 21), each fast row against its own tod
   channels-last, 512 copies).
 
 The runners are what ``h2h-racing train`` builds (``training.train.make_runner``), so the
-recipe rows time the recipe files, not settings of the bench's own.
+recipe rows time the recipe files, not settings of the bench's own. The camera rows also time
+``distill_64.toml`` (the 64 x 48 image the camera-only students since use).
+
+With ``--device cuda`` every recipe row (and today's state row) runs a second time with the
+learner on the GPU (``TrainConfig.device``; the env stays on the CPU), its ratios to the same
+row on the CPU in the same run. The clock waits for the GPU (``torch.cuda.synchronize``)
+before it reads the end of each phase.
 """
 
 from __future__ import annotations
@@ -99,6 +106,7 @@ class Bench:
     name: str
     runner: Any
     threads: int
+    device: str = "cpu"
     obs: Any = None
     base: str | None = None
     """The row whose figures this one's ratios divide by (None: the table's first)."""
@@ -137,8 +145,26 @@ def build(name: str, config: TrainConfig, compile_models: bool = False,
     if compile_models:
         runner.alg.compile("default")
     runner.alg.train_mode()
-    return Bench(name=name, runner=runner, threads=config.torch_threads,
-                 obs=env.get_observations(), base=base)
+    return Bench(name=name, runner=runner, threads=config.torch_threads, device=config.device,
+                 obs=env.get_observations().to(runner.device), base=base)
+
+
+def sync(device: str) -> None:
+    """Wait for ``device``'s queued work (CUDA runs asynchronously to the clock)."""
+    if device.startswith("cuda"):
+        torch.cuda.synchronize(device)
+
+
+def on_device(rows: list[tuple[str, TrainConfig, str]],
+              device: str) -> list[tuple[str, TrainConfig, str]]:
+    """``rows`` with, after each row that is not its own base (a recipe row), the same row
+    with the learner on ``device``, based on the CPU row."""
+    out = []
+    for name, config, base in rows:
+        out.append((name, config, base))
+        if device != "cpu" and base != name:
+            out.append((f"{name}, {device}", dataclasses.replace(config, device=device), name))
+    return out
 
 
 def iteration(bench: Bench) -> tuple[float, float]:
@@ -151,12 +177,17 @@ def iteration(bench: Bench) -> tuple[float, float]:
     with torch.inference_mode():
         for _ in range(steps):
             actions = runner.alg.act(obs)
-            obs, rewards, dones, extras = runner.env.step(actions)
+            obs, rewards, dones, extras = runner.env.step(actions.to(runner.env.device))
+            # The learner's device, as OnPolicyRunner.learn moves them.
+            obs, rewards, dones = (obs.to(runner.device), rewards.to(runner.device),
+                                   dones.to(runner.device))
             runner.alg.process_env_step(obs, rewards, dones, extras)
         if hasattr(runner.alg, "compute_returns"):
             runner.alg.compute_returns(obs)
+    sync(bench.device)
     middle = clock()
     runner.alg.update()
+    sync(bench.device)
     end = clock()
     bench.obs = obs
     return middle - start, end - middle
@@ -233,6 +264,12 @@ def camera_rows(envs: int,
         rows += [(today, TrainConfig(num_envs=envs, observations="camera_only",
                                      imitation=imitation, eval_every=0), today),
                  (f"distill {teacher} {fast}, {recipe.num_envs} copies", recipe, today)]
+    big = TrainConfig.from_toml(RECIPES / "distill_64.toml")
+    big = dataclasses.replace(big, eval_every=0, num_envs=recipe_envs or big.num_envs)
+    net = "-".join(map(str, big.camera_channels))
+    rows.append((f"distill {big.imitation.teacher} 64x48, CNN {net}"
+                 + (", channels-last" if big.channels_last else "")
+                 + f", {big.num_envs} copies", big, f"distill {big.imitation.teacher} 64x48"))
     return rows
 
 
@@ -254,10 +291,22 @@ def main() -> None:
                              "recipe's (with --quick, these too) (default: 64)")
     parser.add_argument("--quick", action="store_true",
                         help="64 copies, 2 rounds, 1 warm-up: a smoke run")
+    parser.add_argument("--device", default="cpu",
+                        help="also time the recipe rows and today's state row with the learner "
+                             "on this torch device, e.g. cuda (default: cpu, no extra rows)")
     parser.add_argument("--cpu-time", action="store_true",
                         help="time with this thread's CPU time instead of the wall clock "
                              "(steadier where other processes share the CPU)")
     args = parser.parse_args()
+    if args.device != "cpu":
+        from h2h_racing.training.device import check_device_available
+
+        if args.cpu_time:
+            parser.error("--cpu-time misses the GPU's work; time --device rows on the wall clock")
+        try:
+            check_device_available(args.device)
+        except ValueError as error:
+            parser.error(str(error))
     global clock
     clock = time.thread_time if args.cpu_time else time.perf_counter
     if args.quick:
@@ -276,8 +325,14 @@ def main() -> None:
             continue
         config = state_config({k: v for k, v in changes.items() if k != "compile"},
                               args.envs, args.cars)
+        named = [(name, config, None)]
+        if name == "today" and args.device != "cpu":
+            named.append((f"today, {args.device}",
+                          dataclasses.replace(config, device=args.device), "today"))
         try:
-            benches.append(build(name, config, compile_models=changes.get("compile", False)))
+            for row, row_config, base in named:
+                benches.append(build(row, row_config, base=base,
+                                     compile_models=changes.get("compile", False)))
         except Exception as error:  # noqa: BLE001 - reported as the setting's result
             benches.append(Bench(name=name, runner=None, threads=1,
                                  error=f"{type(error).__name__}: {error}"))
@@ -286,11 +341,15 @@ def main() -> None:
            f"iteration ({args.rounds} rounds, load average {os.getloadavg()[0]:.1f} at the end)",
            benches)
     if args.camera:
-        rows = camera_rows(args.camera_envs, recipe_envs=args.camera_envs if args.quick else None)
+        rows = on_device(camera_rows(args.camera_envs,
+                                     recipe_envs=args.camera_envs if args.quick else None),
+                         args.device)
         cameras = [build(name, config, base=base) for name, config, base in rows]
         run(cameras, max(2, args.rounds // 3), args.warmup)
-        report(f"camera rows, today's with {args.camera_envs} copies, each fast row's ratios to "
-               f"the today's row above it ({max(2, args.rounds // 3)} rounds, load average "
+        device_ratio = (f", a {args.device} row's to the same row on the cpu"
+                        if args.device != "cpu" else "")
+        report(f"camera rows, today's with {args.camera_envs} copies; ratios: a fast row's to "
+               f"the today's row above it{device_ratio} ({max(2, args.rounds // 3)} rounds, load average "
                f"{os.getloadavg()[0]:.1f} at the end)", cameras)
 
 

@@ -123,3 +123,53 @@ def test_the_device_reaches_the_runner_and_the_env_stays_on_the_cpu(
     assert asked == [("cuda", "cpu")]
     assert runner.env.device == "cpu"
     assert runner.current_learning_iteration == 1
+
+
+def _tensors(value: Any) -> list[torch.Tensor]:
+    """Every tensor in a nested dict/list ``value`` (a policy file's payload)."""
+    if isinstance(value, torch.Tensor):
+        return [value]
+    if isinstance(value, dict):
+        return [t for v in value.values() for t in _tensors(v)]
+    if isinstance(value, (list, tuple)):
+        return [t for v in value for t in _tensors(v)]
+    return []
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA GPU (CI has none)")
+@pytest.mark.parametrize("teacher", [None, "racing_line"])
+def test_on_a_gpu_the_learner_trains_there_and_the_policy_file_drives_on_the_cpu(
+        teacher: str | None, tmp_path: Path) -> None:
+    import numpy as np
+    from tensordict import TensorDict
+
+    import h2h_racing
+    from h2h_racing.policies import make_driver
+    from h2h_racing.policies.trained import load_policy_payload
+    from h2h_racing.training.imitation import ImitationConfig
+
+    config = TrainConfig(track="oval", num_envs=4, num_steps_per_env=4, hidden_dims=(8, 8),
+                         observations="camera_only", camera_size=(24, 16),
+                         camera_channels=(4, 8), channels_last=True, eval_every=0,
+                         device="cuda", imitation=ImitationConfig(teacher=teacher))
+    runner = train(config, iterations=2, out=tmp_path)
+    student = runner.alg.get_policy()
+    assert {p.device.type for p in student.parameters()} == {"cuda"}
+    assert runner.env.device == "cpu"
+    payload = load_policy_payload(tmp_path / "policy.pt")
+    assert _tensors(payload) and {t.device.type for t in _tensors(payload)} == {"cpu"}
+
+    env = h2h_racing.parallel_env(track="oval", num_cars=1, race_type="time_trial")
+    env.reset(seed=3)
+    for _ in range(6):
+        env.step({"car_0": np.array([0.2, 0.6], np.float32)})
+    driver = make_driver(str(tmp_path / "policy.pt"))
+    driver.reset(env.core)
+    groups = driver._observe(env.core, 0)
+    # The trained weights, moved to the CPU, give the driver's action (to float32 rounding:
+    # the student's weights are channels-last, the driver's need not be).
+    on_cpu = student.cpu().eval()
+    with torch.inference_mode():
+        expected = on_cpu(TensorDict({k: torch.from_numpy(v) for k, v in groups.items()},
+                                     batch_size=[1])).numpy()
+    np.testing.assert_allclose(driver.act(env.core, 0), np.clip(expected, -1, 1), atol=1e-5)
