@@ -106,7 +106,6 @@ class Bench:
     name: str
     runner: Any
     threads: int
-    device: str = "cpu"
     obs: Any = None
     base: str | None = None
     """The row whose figures this one's ratios divide by (None: the table's first)."""
@@ -145,7 +144,7 @@ def build(name: str, config: TrainConfig, compile_models: bool = False,
     if compile_models:
         runner.alg.compile("default")
     runner.alg.train_mode()
-    return Bench(name=name, runner=runner, threads=config.torch_threads, device=config.device,
+    return Bench(name=name, runner=runner, threads=config.torch_threads,
                  obs=env.get_observations().to(runner.device), base=base)
 
 
@@ -184,10 +183,10 @@ def iteration(bench: Bench) -> tuple[float, float]:
             runner.alg.process_env_step(obs, rewards, dones, extras)
         if hasattr(runner.alg, "compute_returns"):
             runner.alg.compute_returns(obs)
-    sync(bench.device)
+    sync(runner.device)
     middle = clock()
     runner.alg.update()
-    sync(bench.device)
+    sync(runner.device)
     end = clock()
     bench.obs = obs
     return middle - start, end - middle
@@ -329,13 +328,13 @@ def main() -> None:
         if name == "today" and args.device != "cpu":
             named.append((f"today, {args.device}",
                           dataclasses.replace(config, device=args.device), "today"))
-        try:
-            for row, row_config, base in named:
+        for row, row_config, base in named:
+            try:
                 benches.append(build(row, row_config, base=base,
                                      compile_models=changes.get("compile", False)))
-        except Exception as error:  # noqa: BLE001 - reported as the setting's result
-            benches.append(Bench(name=name, runner=None, threads=1,
-                                 error=f"{type(error).__name__}: {error}"))
+            except Exception as error:  # noqa: BLE001 - reported as the row's result
+                benches.append(Bench(name=row, runner=None, threads=1,
+                                     error=f"{type(error).__name__}: {error}"))
     run(benches, args.rounds, args.warmup)
     report(f"PPO, state observations, {args.envs} copies x {args.cars} car(s), 32 steps per "
            f"iteration ({args.rounds} rounds, load average {os.getloadavg()[0]:.1f} at the end)",
