@@ -20,7 +20,8 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
                           length: tuple[float, float] = (20.0, 45.0),
                           reverse_share: float = 0.0,
                           chicanes: tuple[int, int] = (0, 0),
-                          tight_share: float = 0.0, circuit_share: float = 0.0) -> Track:
+                          tight_share: float = 0.0, circuit_share: float = 0.0,
+                          circuit_corners: str = "arcs") -> Track:
     """A random closed track for training: lap length drawn in ``length`` [m], width in the
     catalogue's range [0.76, 1.07] m: constant (drawn uniformly) or, on a ``varying_share`` of
     the tracks, varying along the lap between two widths drawn in that range (sorted); corners
@@ -36,12 +37,19 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
 
     A ``circuit_share`` of the tracks are circuits of tight corners (``random_circuit``): width
     drawn in ``TIGHT_WIDTH``, every corner 0.5-0.7 m radius (at least 0.6 x the width), 0-2
-    chicanes; 25-48 % of their lap is under 1 m radius (10th-90th percentile)."""
+    chicanes; 25-48 % of their lap is under 1 m radius (10th-90th percentile). With
+    ``circuit_corners="bspline"`` their outline is rounded by its B-spline instead, on cells of
+    ``BSPLINE_CELL``: round hairpins and esses with no straights between, 26-39 % of the lap
+    under 1 m."""
     # No draw without the option: the same seed gives the same tracks as before it.
     if circuit_share > 0 and rng.random() < circuit_share:
         width = float(rng.uniform(*TIGHT_WIDTH))
-        spec = random_circuit(rng, width=width, corner_radius=(max(0.5, 0.6 * width), 0.7),
-                              chicanes=(0, 2))
+        if circuit_corners == "bspline":
+            spec = random_circuit(rng, width=width, cell=BSPLINE_CELL, chicanes=(0, 2),
+                                  corners="bspline", jitter=0.08)
+        else:
+            spec = random_circuit(rng, width=width, chicanes=(0, 2),
+                                  corner_radius=(max(0.5, 0.6 * width), 0.7))
         return _maybe_reversed(rng, spec, reverse_share)
     if tight_share > 0 and rng.random() < tight_share:
         width: float | tuple[float, float] = float(rng.uniform(*TIGHT_WIDTH))
@@ -69,6 +77,9 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
 
 TIGHT_LENGTH = (14.0, 22.0)
 """Lap-length range of ``random_training_track``'s tight tracks [m] (``technical``: 20 m)."""
+BSPLINE_CELL = (1.5, 1.9)
+"""Cell sizes of the B-spline circuits [m]: right angles of 0.53-0.67 m radius, legs of a
+hairpin 0.6-1.1 m apart at the borders (``technical``: 0.5-0.7 m)."""
 TIGHT_WIDTH = (0.76, 0.9)
 """Width range of the tight tracks [m] (``technical``: 0.76 m)."""
 
@@ -123,6 +134,9 @@ class ProceduralTracks:
     circuit_share: float = 0.0
     """Share of tracks that are kart-style circuits of tight corners (``random_circuit``):
     25-48 % of their lap under 1 m radius, the tight tracks' 5-20 %, ``technical``'s 40 %."""
+    circuit_corners: str = "arcs"
+    """How the circuits' corners are drawn: ``"arcs"`` (90 deg arcs joined by straights) or
+    ``"bspline"`` (the outline's B-spline: round hairpins and esses, as ``technical``'s)."""
 
     def __post_init__(self) -> None:
         if not (isinstance(self.every, int) and not isinstance(self.every, bool)
@@ -133,6 +147,9 @@ class ProceduralTracks:
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ValueError(f"[procedural] {name} must be in [0, 1], got "
                                  f"{getattr(self, name)!r}")
+        if self.circuit_corners not in ("arcs", "bspline"):
+            raise ValueError(f"[procedural] circuit_corners must be 'arcs' or 'bspline', got "
+                             f"{self.circuit_corners!r}")
         fewest, most = self.chicanes
         if not (isinstance(fewest, int) and isinstance(most, int) and 0 <= fewest <= most):
             raise ValueError(f"[procedural] chicanes must be (fewest, most) ints with "
@@ -149,4 +166,4 @@ class ProceduralTracks:
         """A random training track drawn from ``rng`` with these settings."""
         return random_training_track(rng, self.varying_share, self.min_radius, self.length,
                                      self.reverse_share, self.chicanes, self.tight_share,
-                                     self.circuit_share)
+                                     self.circuit_share, self.circuit_corners)

@@ -16,7 +16,10 @@ from h2h_racing.track_gen import (
     signed_area,
     smooth_closed_curve,
 )
-from h2h_racing.track_gen_circuit import _has_hole, _outline, _rounded, random_circuit
+from h2h_racing.track_gen_circuit import _bspline, _has_hole, _outline, _rounded, random_circuit
+
+ARCS_SEED_4 = "circuit-c558ed2e"
+"""``random_circuit(np.random.default_rng(4)).name`` before ``corners`` was added (b3164f8)."""
 
 
 def blob(*cells: tuple[int, int]) -> np.ndarray:
@@ -35,6 +38,15 @@ class TestOutline:
         assert np.roll(corners, -start, axis=0).tolist() == [[0, 0], [2, 0], [2, 1], [1, 1],
                                                             [1, 2], [0, 2]]
         assert signed_area(corners.astype(float)) == pytest.approx(3.0)
+
+    def test_every_grid_point_of_the_outline_in_order(self) -> None:
+        # The same L: 8 unit edges around it, the turn points among them in the same order.
+        path = _outline(blob((0, 0), (1, 0), (0, 1)), turns_only=False)
+        assert len(path) == 8
+        steps = np.abs(np.roll(path, -1, axis=0) - path).sum(axis=1)
+        assert (steps == 1).all()
+        turns = _outline(blob((0, 0), (1, 0), (0, 1)))
+        assert [p for p in path.tolist() if p in turns.tolist()] == turns.tolist()
 
     def test_cells_meeting_at_a_corner_pinch_the_outline(self) -> None:
         # A staircase of 6 cells turns 12 times; without its step cells it pinches.
@@ -70,6 +82,29 @@ class TestRounded:
         assert closed_length(centre) == pytest.approx(4 + math.pi, rel=2e-3)
 
 
+class TestBSpline:
+    def test_a_square_becomes_a_round_loop_through_the_midpoints(self) -> None:
+        # A 2 m square's quadratic B-spline: four parabolic arcs, each from one side's
+        # midpoint to the next, passing (1/4)(M_i + M_i+1) + (1/2)P at t = 1/2, that is
+        # (1.75, 1.75) for the corner (2, 2): the radius there is a / sqrt 2 = 1 / sqrt 2
+        # (a = 1 m, half a side).
+        square = np.array([(0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (0.0, 2.0)])
+        dense = _bspline(square, samples=200)
+        assert np.linalg.norm(dense - (1.0, 0.0), axis=1).min() < 1e-9
+        assert np.linalg.norm(dense - (1.75, 1.75), axis=1).min() < 1e-9
+        centre = smooth_closed_curve(dense, spacing=0.01)
+        assert min_radius_of_curvature(centre) == pytest.approx(1 / math.sqrt(2), rel=0.02)
+
+    def test_collinear_points_stay_straight(self) -> None:
+        # A 3 x 1 rectangle walked in unit steps: the long sides' inner points are collinear,
+        # so the curve runs along y = 0 between x = 1 and x = 2 exactly.
+        path = np.array([(0, 0), (1, 0), (2, 0), (3, 0), (3, 1), (2, 1), (1, 1), (0, 1)], float)
+        dense = _bspline(path, samples=8)
+        bottom = dense[(dense[:, 0] >= 1.0) & (dense[:, 0] <= 2.0) & (dense[:, 1] < 0.5)]
+        assert len(bottom) >= 8
+        np.testing.assert_allclose(bottom[:, 1], 0.0, atol=1e-12)
+
+
 class TestRandomCircuit:
     def test_circuits_are_valid_tight_and_anticlockwise(self) -> None:
         width = 0.8
@@ -90,6 +125,28 @@ class TestRandomCircuit:
         assert min(shares) > 0.15
         assert np.mean(shares) > 0.3
 
+    def test_bspline_circuits_are_valid_round_and_tight(self) -> None:
+        # Cells of 1.5-1.9 m: right angles of a / sqrt 2 = 0.53-0.67 m radius before the
+        # jitter, and the rest straight or gentler: more than a fifth of the lap under 1 m.
+        width = 0.76
+        for seed in range(6):
+            spec = random_circuit(np.random.default_rng(seed), width=width, cell=(1.5, 1.9),
+                                  corners="bspline", jitter=0.08)
+            assert "(bspline)" in spec.description
+            assert signed_area(spec.centre) > 0
+            assert min_radius_of_curvature(spec.centre) >= 0.6 * width
+            left, right = border_polylines(spec.centre, spec.width_left, spec.width_right)
+            assert not len(find_crossings(left, right))
+            assert (np.abs(curvature(spec.centre)) > 1.0).mean() > 0.2
+            # Smaller curvature steps than the arcs' (1 / r at each arc's end, 1.05-1.16 /m
+            # between vertices 5 cm apart after the spline for seeds 0-5): 0.48-0.73 /m.
+            assert np.abs(np.diff(curvature(spec.centre))).max() < 0.9
+
+    def test_arcs_draws_are_those_of_before_the_bspline_option(self) -> None:
+        # The default draws as it did before ``corners`` existed: a recorded circuit of
+        # seed 4 (its name is the hash of its geometry).
+        assert random_circuit(np.random.default_rng(4)).name == ARCS_SEED_4
+
     def test_same_seed_same_circuit(self) -> None:
         a = random_circuit(np.random.default_rng(4))
         b = random_circuit(np.random.default_rng(4))
@@ -103,6 +160,8 @@ class TestRandomCircuit:
         ({"cells": (2, 6)}, r"cells = \(fewest, most\) with 4 <= fewest"),
         ({"width": -1.0}, r"width > 0"),
         ({"max_tries": 0}, r"max_tries >= 1"),
+        ({"corners": "round"}, r"corners = 'arcs' or 'bspline', got 'round'"),
+        ({"jitter": 0.5}, r"0 <= jitter < cell low / 4 = 0.325 m, got 0.5"),
     ])
     def test_bad_arguments_are_named(self, kwargs: dict, message: str) -> None:
         with pytest.raises(ValueError, match=message):

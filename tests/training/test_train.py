@@ -512,6 +512,21 @@ class TestProcedural:
         drawn = ProceduralTracks(circuit_share=1.0).draw(np.random.default_rng(0))
         assert drawn.name.startswith("circuit-")
 
+    def test_circuit_corners_bspline_reaches_the_circuits(self) -> None:
+        from h2h_racing.training.tracks import random_training_track
+
+        drawn = ProceduralTracks(circuit_share=1.0, circuit_corners="bspline").draw(
+            np.random.default_rng(0))
+        assert "(bspline)" in drawn.description
+        assert drawn.name == random_training_track(np.random.default_rng(0), circuit_share=1.0,
+                                                   circuit_corners="bspline").name
+        # The default is the arcs, drawn as before the option.
+        assert "(arcs)" in ProceduralTracks(circuit_share=1.0).draw(
+            np.random.default_rng(0)).description
+        with pytest.raises(ValueError, match=r"circuit_corners must be 'arcs' or 'bspline', "
+                                             r"got 'round'"):
+            ProceduralTracks(circuit_corners="round")
+
     def test_set_track_restarts_every_copy(self) -> None:
         from h2h_racing.training.vec_env import RacingVecEnv
 
