@@ -21,7 +21,7 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
                           reverse_share: float = 0.0,
                           chicanes: tuple[int, int] = (0, 0),
                           tight_share: float = 0.0, circuit_share: float = 0.0,
-                          circuit_corners: str = "arcs") -> Track:
+                          circuit_corners: str | tuple[str, ...] = "arcs") -> Track:
     """A random closed track for training: lap length drawn in ``length`` [m], width in the
     catalogue's range [0.76, 1.07] m: constant (drawn uniformly) or, on a ``varying_share`` of
     the tracks, varying along the lap between two widths drawn in that range (sorted); corners
@@ -36,19 +36,20 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
     0-5 % for the other tracks (``technical``: 40 %).
 
     A ``circuit_share`` of the tracks are circuits of tight corners (``random_circuit``): width
-    drawn in ``TIGHT_WIDTH``, every corner 0.5-0.7 m radius (at least 0.6 x the width), 0-2
-    chicanes; 25-48 % of their lap is under 1 m radius (10th-90th percentile). With
-    ``circuit_corners="bspline"`` their outline is rounded by its B-spline instead, on cells of
-    ``BSPLINE_CELL``: round hairpins and esses with no straights between, 26-39 % of the lap
-    under 1 m."""
+    drawn in ``TIGHT_WIDTH``, 0-2 chicanes, drawn in one of the ``circuit_corners`` styles
+    (``CIRCUIT_STYLES``; one drawn per circuit when several are given)."""
     # No draw without the option: the same seed gives the same tracks as before it.
     if circuit_share > 0 and rng.random() < circuit_share:
         width = float(rng.uniform(*TIGHT_WIDTH))
-        if circuit_corners == "bspline":
+        styles = (circuit_corners,) if isinstance(circuit_corners, str) else circuit_corners
+        # No draw for a single style: the same seed gives the same circuits as before.
+        style = styles[int(rng.integers(len(styles)))] if len(styles) > 1 else styles[0]
+        if style == "bspline":
             spec = random_circuit(rng, width=width, cell=BSPLINE_CELL, chicanes=(0, 2),
                                   corners="bspline", jitter=0.08)
         else:
             spec = random_circuit(rng, width=width, chicanes=(0, 2),
+                                  cell=HAIRPIN_CELL if style == "hairpins" else (1.3, 2.2),
                                   corner_radius=(max(0.5, 0.6 * width), 0.7))
         return _maybe_reversed(rng, spec, reverse_share)
     if tight_share > 0 and rng.random() < tight_share:
@@ -77,6 +78,18 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
 
 TIGHT_LENGTH = (14.0, 22.0)
 """Lap-length range of ``random_training_track``'s tight tracks [m] (``technical``: 20 m)."""
+CIRCUIT_STYLES = {
+    "arcs": "every grid corner a 0.5-0.7 m arc, straights between, cells of 1.3-2.2 m: 25-48 % "
+            "of the lap under 1 m radius (10th-90th percentile)",
+    "bspline": "the outline's B-spline on cells of BSPLINE_CELL: round hairpins and esses with "
+               "no straights between, 26-39 % of the lap under 1 m",
+    "hairpins": "arcs on cells of HAIRPIN_CELL: a one-cell bay or peninsula is a semicircle, "
+                "its legs 0.5-0.84 m apart at the borders, as technical's bay",
+}
+"""The ``circuit_corners`` styles of ``random_training_track``'s circuits."""
+HAIRPIN_CELL = (1.26, 1.6)
+"""Cell sizes of the hairpin circuits [m]: 2 x 0.63 m, the semicircle of ``technical``'s
+tightest hairpin (legs 0.5 m apart at the borders), to 1.6 m."""
 BSPLINE_CELL = (1.5, 1.9)
 """Cell sizes of the B-spline circuits [m]: right angles of 0.53-0.67 m radius, legs of a
 hairpin 0.6-1.1 m apart at the borders (``technical``: 0.5-0.7 m)."""
@@ -134,9 +147,9 @@ class ProceduralTracks:
     circuit_share: float = 0.0
     """Share of tracks that are kart-style circuits of tight corners (``random_circuit``):
     25-48 % of their lap under 1 m radius, the tight tracks' 5-20 %, ``technical``'s 40 %."""
-    circuit_corners: str = "arcs"
-    """How the circuits' corners are drawn: ``"arcs"`` (90 deg arcs joined by straights) or
-    ``"bspline"`` (the outline's B-spline: round hairpins and esses, as ``technical``'s)."""
+    circuit_corners: tuple[str, ...] = ("arcs",)
+    """How the circuits are drawn (``CIRCUIT_STYLES``: ``"arcs"``, ``"bspline"``,
+    ``"hairpins"``); one of them drawn per circuit when several are given."""
 
     def __post_init__(self) -> None:
         if not (isinstance(self.every, int) and not isinstance(self.every, bool)
@@ -147,9 +160,11 @@ class ProceduralTracks:
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ValueError(f"[procedural] {name} must be in [0, 1], got "
                                  f"{getattr(self, name)!r}")
-        if self.circuit_corners not in ("arcs", "bspline"):
-            raise ValueError(f"[procedural] circuit_corners must be 'arcs' or 'bspline', got "
-                             f"{self.circuit_corners!r}")
+        if isinstance(self.circuit_corners, str):
+            object.__setattr__(self, "circuit_corners", (self.circuit_corners,))
+        if not (self.circuit_corners and all(c in CIRCUIT_STYLES for c in self.circuit_corners)):
+            raise ValueError(f"[procedural] circuit_corners must be one or more of "
+                             f"{sorted(CIRCUIT_STYLES)}, got {self.circuit_corners!r}")
         fewest, most = self.chicanes
         if not (isinstance(fewest, int) and isinstance(most, int) and 0 <= fewest <= most):
             raise ValueError(f"[procedural] chicanes must be (fewest, most) ints with "

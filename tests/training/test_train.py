@@ -512,7 +512,7 @@ class TestProcedural:
         drawn = ProceduralTracks(circuit_share=1.0).draw(np.random.default_rng(0))
         assert drawn.name.startswith("circuit-")
 
-    def test_circuit_corners_bspline_reaches_the_circuits(self) -> None:
+    def test_circuit_corners_choose_the_circuits_style(self) -> None:
         from h2h_racing.training.tracks import random_training_track
 
         drawn = ProceduralTracks(circuit_share=1.0, circuit_corners="bspline").draw(
@@ -521,11 +521,32 @@ class TestProcedural:
         assert drawn.name == random_training_track(np.random.default_rng(0), circuit_share=1.0,
                                                    circuit_corners="bspline").name
         # The default is the arcs, drawn as before the option.
+        assert ProceduralTracks().circuit_corners == ("arcs",)
         assert "(arcs)" in ProceduralTracks(circuit_share=1.0).draw(
             np.random.default_rng(0)).description
-        with pytest.raises(ValueError, match=r"circuit_corners must be 'arcs' or 'bspline', "
-                                             r"got 'round'"):
+        # Several styles: one drawn per circuit, all of them over a few draws.
+        both = ProceduralTracks(circuit_share=1.0, circuit_corners=("bspline", "hairpins"))
+        rng = np.random.default_rng(1)
+        kinds = {"(bspline)" in both.draw(rng).description for _ in range(8)}
+        assert kinds == {True, False}
+        with pytest.raises(ValueError, match=r"circuit_corners must be one or more of "
+                                             r"\['arcs', 'bspline', 'hairpins'\], got \('round',\)"):
             ProceduralTracks(circuit_corners="round")
+
+    def test_hairpin_circuits_bring_legs_as_close_as_technicals(self) -> None:
+        from h2h_racing.track_metrics import min_clearance
+        from h2h_racing.training.tracks import HAIRPIN_CELL, random_training_track
+
+        # Cells of 1.26-1.6 m: two legs one cell apart are 1.26-1.6 m apart centre to centre,
+        # 0.36-0.84 m at the borders of a 0.76-0.9 m track (technical's bay: 0.5 m). A corner
+        # is capped at half a side, so a one-cell bay's end is a semicircle of 0.63-0.8 m.
+        for seed in range(4):
+            track = random_training_track(np.random.default_rng(seed), circuit_share=1.0,
+                                          circuit_corners="hairpins")
+            width = float(track.width.min())
+            gap = min_clearance(np.asarray(track.centre)[::2], exclude_arc=3 * width) - width
+            assert 0.25 <= gap <= HAIRPIN_CELL[1] - width + 1e-6
+            assert float(np.abs(track.curvature_vertex).max()) <= 1 / (0.6 * width)
 
     def test_set_track_restarts_every_copy(self) -> None:
         from h2h_racing.training.vec_env import RacingVecEnv
