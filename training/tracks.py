@@ -21,9 +21,10 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
                           reverse_share: float = 0.0,
                           chicanes: tuple[int, int] = (0, 0),
                           tight_share: float = 0.0, circuit_share: float = 0.0,
-                          circuit_corners: str | tuple[str, ...] = "arcs") -> Track:
+                          circuit_corners: str | tuple[str, ...] = "arcs",
+                          narrowest: float = 0.76) -> Track:
     """A random closed track for training: lap length drawn in ``length`` [m], width in the
-    catalogue's range [0.76, 1.07] m: constant (drawn uniformly) or, on a ``varying_share`` of
+    catalogue's range [``narrowest``, 1.07] m (0.76 by default): constant (drawn uniformly) or, on a ``varying_share`` of
     the tracks, varying along the lap between two widths drawn in that range (sorted); corners
     down to ``min_radius`` [m], or 1.2 x the widest half-width if that is larger
     (``random_track``), with a number of chicanes drawn in ``chicanes``; on a
@@ -37,10 +38,13 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
 
     A ``circuit_share`` of the tracks are circuits of tight corners (``random_circuit``): width
     drawn in ``TIGHT_WIDTH``, 0-2 chicanes, drawn in one of the ``circuit_corners`` styles
-    (``CIRCUIT_STYLES``; one drawn per circuit when several are given)."""
+    (``CIRCUIT_STYLES``; one drawn per circuit when several are given).
+
+    ``narrowest`` [m] replaces 0.76 as the low end of every width range (``TIGHT_WIDTH``'s
+    too): DeepRacer's ``Oval_track`` narrows to 0.61 m."""
     # No draw without the option: the same seed gives the same tracks as before it.
     if circuit_share > 0 and rng.random() < circuit_share:
-        width = float(rng.uniform(*TIGHT_WIDTH))
+        width = float(rng.uniform(narrowest, TIGHT_WIDTH[1]))
         styles = (circuit_corners,) if isinstance(circuit_corners, str) else circuit_corners
         # No draw for a single style: the same seed gives the same circuits as before.
         style = styles[int(rng.integers(len(styles)))] if len(styles) > 1 else styles[0]
@@ -53,7 +57,7 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
                                   corner_radius=(max(0.5, 0.6 * width), 0.7))
         return _maybe_reversed(rng, spec, reverse_share)
     if tight_share > 0 and rng.random() < tight_share:
-        width: float | tuple[float, float] = float(rng.uniform(*TIGHT_WIDTH))
+        width: float | tuple[float, float] = float(rng.uniform(narrowest, TIGHT_WIDTH[1]))
         # About 1 in 12 calls of random_track finds no valid loop of this kind in its 100
         # tries; the next call (same generator, new draws) almost always does.
         for attempt in range(5):
@@ -66,10 +70,10 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
                 if attempt == 4:
                     raise
         return _maybe_reversed(rng, spec, reverse_share)
-    width = float(rng.uniform(0.76, 1.07))
+    width = float(rng.uniform(narrowest, 1.07))
     # No draw without varying widths: the same seed gives the same tracks as before the option.
     if varying_share > 0 and rng.random() < varying_share:
-        width = (min(width, w := float(rng.uniform(0.76, 1.07))), max(width, w))
+        width = (min(width, w := float(rng.uniform(narrowest, 1.07))), max(width, w))
     widest = width if isinstance(width, float) else width[1]
     spec = random_track(rng, length_range=length, width=width,
                         min_radius=max(min_radius, 0.6 * widest), chicanes=chicanes)
@@ -147,6 +151,9 @@ class ProceduralTracks:
     circuit_share: float = 0.0
     """Share of tracks that are kart-style circuits of tight corners (``random_circuit``):
     25-48 % of their lap under 1 m radius, the tight tracks' 5-20 %, ``technical``'s 40 %."""
+    narrowest: float = 0.76
+    """Low end of every width range [m], the catalogue's 0.76 by default; DeepRacer's
+    ``Oval_track`` narrows to 0.61 m."""
     circuit_corners: tuple[str, ...] = ("arcs",)
     """How the circuits are drawn (``CIRCUIT_STYLES``: ``"arcs"``, ``"bspline"``,
     ``"hairpins"``); one of them drawn per circuit when several are given."""
@@ -173,6 +180,9 @@ class ProceduralTracks:
         if not 5.0 <= low <= high:
             raise ValueError(f"[procedural] length must be (low, high) laps with "
                              f"5 <= low <= high [m], got {self.length!r}")
+        if not 0.5 <= self.narrowest <= TIGHT_WIDTH[1]:
+            raise ValueError(f"[procedural] narrowest must be in [0.5, {TIGHT_WIDTH[1]}] m, got "
+                             f"{self.narrowest!r}")
         if not 0.4 <= self.min_radius:
             raise ValueError(f"[procedural] min_radius must be >= 0.4 m (above the narrowest "
                              f"half-width, 0.38 m), got {self.min_radius!r}")
@@ -181,4 +191,4 @@ class ProceduralTracks:
         """A random training track drawn from ``rng`` with these settings."""
         return random_training_track(rng, self.varying_share, self.min_radius, self.length,
                                      self.reverse_share, self.chicanes, self.tight_share,
-                                     self.circuit_share, self.circuit_corners)
+                                     self.circuit_share, self.circuit_corners, self.narrowest)

@@ -21,8 +21,6 @@ from h2h_racing.policies import make_driver
 from h2h_racing.track_io import load_track
 from h2h_racing.training.evaluate import evaluate
 
-OFF = 0.40
-"""Offset from the centre line [m] past which an attempt counts as gone off (0.76 m tracks)."""
 
 _window: tuple[float, float] | None = None
 _draw = camera.GroundTexture._draw
@@ -51,7 +49,8 @@ def _masked_draw(self: Any, track: Any, rows: int, cols: int) -> np.ndarray:
 
 
 class Recorder:
-    """Drives with ``driver`` (speed action capped at ``cap``); records arc position and offset."""
+    """Drives with ``driver`` (speed action capped at ``cap``); records arc position, offset and
+    the core's count of off-tracks before each step."""
 
     def __init__(self, driver: Any, cap: float) -> None:
         self.driver, self.cap, self.name = driver, cap, "recorded"
@@ -60,21 +59,29 @@ class Recorder:
         self.driver.reset(core)
         self.s: list[np.ndarray] = []
         self.d: list[np.ndarray] = []
+        self.off: list[np.ndarray] = []
 
     def act(self, core: Any, car: int) -> np.ndarray:
         self.s.append(core.s[:, car].copy())
         self.d.append(core.d[:, car].copy())
+        self.off.append(core.off_tracks[:, car].copy())
         action = np.array(self.driver.act(core, car), dtype=np.float64)
         action[:, 1] = np.minimum(action[:, 1], self.cap)
         return action
 
 
 def attempts(policy: str, track: str, cap: float, episodes: int = 20
-             ) -> tuple[np.ndarray, np.ndarray]:
-    """Arc positions and offsets of every attempt, shapes (steps, episodes)."""
+             ) -> tuple[np.ndarray, np.ndarray, list[int | None]]:
+    """Arc positions and offsets of every attempt, shapes (steps, episodes), and the step of
+    each attempt's off-track (None if it had none): the last step before the core counted it."""
     recorder = Recorder(make_driver(policy, seed=0), cap)
     print(evaluate(recorder, track, episodes=episodes, seed=0))
-    return np.array(recorder.s), np.array(recorder.d)
+    counts = np.array(recorder.off + [recorder.off[-1]])
+    ends = []
+    for e in range(counts.shape[1]):
+        went = np.flatnonzero(np.diff(counts[:, e]) > 0)
+        ends.append(int(went[0]) if len(went) else None)
+    return np.array(recorder.s), np.array(recorder.d), ends
 
 
 def main() -> None:
@@ -88,26 +95,24 @@ def main() -> None:
     args = parser.parse_args()
     camera.GroundTexture._draw = _masked_draw
     if not args.mask_around:
-        s, d = attempts(args.policy, args.track, args.cap)
-        for e in range(s.shape[1]):
-            off = np.flatnonzero(np.abs(d[:, e]) > OFF)
-            where = f"off at s = {s[off[0], e]:6.2f} m, d = {d[off[0], e]:+.2f} m" if len(off) \
-                else "did not go off"
+        s, d, ends = attempts(args.policy, args.track, args.cap)
+        for e, end in enumerate(ends):
+            where = "did not go off" if end is None else \
+                f"off at s = {s[end, e]:6.2f} m, d = {d[end, e]:+.2f} m"
             print(f"attempt {e:2d} from s = {s[0, e]:6.2f} m: {where}")
         return
     lap = load_track(args.track).length
     for p in args.mask_around:
         for window in (None, (p - 4.0, p + 2.0)):
             _window = window
-            s, d = attempts(args.policy, args.track, args.cap, episodes=40)
+            s, d, ends = attempts(args.policy, args.track, args.cap, episodes=40)
             passed = tried = 0
             for e in range(s.shape[1]):
                 if not (p - 3.0 - s[0, e]) % lap < 1.5:
                     continue
                 tried += 1
                 travelled = np.unwrap(s[:, e] * 2 * np.pi / lap) * lap / (2 * np.pi) - s[0, e]
-                off = np.flatnonzero(np.abs(d[:, e]) > OFF)
-                end = off[0] if len(off) else len(travelled) - 1
+                end = len(travelled) - 1 if ends[e] is None else ends[e]
                 passed += travelled[end] >= (p + 0.7 - s[0, e]) % lap
             hidden = "nothing hidden" if window is None else \
                 f"hidden outside [{window[0]:.1f}, {window[1]:.1f}] m"

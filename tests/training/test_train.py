@@ -533,6 +533,27 @@ class TestProcedural:
                                              r"\['arcs', 'bspline', 'hairpins'\], got \('round',\)"):
             ProceduralTracks(circuit_corners="round")
 
+    def test_narrowest_lowers_every_width_range(self) -> None:
+        from h2h_racing.training.tracks import TIGHT_WIDTH, random_training_track
+
+        settings = dict(varying_share=0.5, tight_share=0.3, circuit_share=0.3)
+        narrow = [random_training_track(np.random.default_rng(s), narrowest=0.6, **settings)
+                  for s in range(16)]
+        assert all(0.6 - 1e-9 <= float(t.width.min()) and float(t.width.max()) <= 1.07 + 1e-9
+                   for t in narrow)
+        # Uniform draws from [0.6, 1.07] (ordinary) or [0.6, 0.9] (tight, circuits): some of
+        # 16 tracks fall below the catalogue's 0.76, which the default never does.
+        assert any(float(t.width.min()) < 0.76 for t in narrow)
+        assert all(float(random_training_track(np.random.default_rng(s), **settings).width.min())
+                   >= 0.76 - 1e-9 for s in range(16))
+        # Same draws otherwise: the same number of random numbers, so the same kinds of track.
+        names = [random_training_track(np.random.default_rng(s), **settings).name.split("-")[0]
+                 for s in range(16)]
+        assert names == [t.name.split("-")[0] for t in narrow]
+        assert ProceduralTracks(narrowest=0.6).narrowest == 0.6
+        with pytest.raises(ValueError, match=rf"narrowest must be in \[0.5, {TIGHT_WIDTH[1]}\] m"):
+            ProceduralTracks(narrowest=0.4)
+
     def test_hairpin_circuits_bring_legs_as_close_as_technicals(self) -> None:
         from h2h_racing.track_metrics import min_clearance
         from h2h_racing.training.tracks import HAIRPIN_CELL, random_training_track
