@@ -24,11 +24,12 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
                           circuit_corners: str | tuple[str, ...] = "arcs",
                           narrowest: float = 0.76) -> Track:
     """A random closed track for training: lap length drawn in ``length`` [m], width in the
-    catalogue's range [``narrowest``, 1.07] m (0.76 by default): constant (drawn uniformly) or, on a ``varying_share`` of
-    the tracks, varying along the lap between two widths drawn in that range (sorted); corners
-    down to ``min_radius`` [m], or 1.2 x the widest half-width if that is larger
-    (``random_track``), with a number of chicanes drawn in ``chicanes``; on a
-    ``reverse_share`` of the tracks driven clockwise (its name then ends in ``-cw``).
+    catalogue's range [0.76, 1.07] m (its low end ``narrowest``): constant (drawn uniformly)
+    or, on a ``varying_share`` of the tracks, varying along the lap between two widths drawn
+    in that range (sorted); corners down to ``min_radius`` [m], or 1.2 x the widest
+    half-width if that is larger (``random_track``), with a number of chicanes drawn in
+    ``chicanes``; on a ``reverse_share`` of the tracks driven clockwise (its name then ends
+    in ``-cw``).
 
     A ``tight_share`` of the tracks are instead short, narrow and twisty, as ``technical`` is:
     lap ``TIGHT_LENGTH``, constant width ``TIGHT_WIDTH``, control-point radii down to 0.3 of
@@ -88,7 +89,7 @@ CIRCUIT_STYLES = {
     "bspline": "the outline's B-spline on cells of BSPLINE_CELL: round hairpins and esses with "
                "no straights between, 26-39 % of the lap under 1 m",
     "hairpins": "arcs on cells of HAIRPIN_CELL: a one-cell bay or peninsula is a semicircle, "
-                "its legs 0.5-0.84 m apart at the borders, as technical's bay",
+                "its legs 0.36-0.84 m apart at the borders (technical's bay: 0.5 m)",
 }
 """The ``circuit_corners`` styles of ``random_training_track``'s circuits."""
 HAIRPIN_CELL = (1.26, 1.6)

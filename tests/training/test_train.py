@@ -529,8 +529,8 @@ class TestProcedural:
         rng = np.random.default_rng(1)
         kinds = {"(bspline)" in both.draw(rng).description for _ in range(8)}
         assert kinds == {True, False}
-        with pytest.raises(ValueError, match=r"circuit_corners must be one or more of "
-                                             r"\['arcs', 'bspline', 'hairpins'\], got \('round',\)"):
+        with pytest.raises(ValueError, match=r"circuit_corners must be one or more of \['arcs', "
+                                             r"'bspline', 'hairpins'\], got \('round',\)"):
             ProceduralTracks(circuit_corners="round")
 
     def test_narrowest_lowers_every_width_range(self) -> None:
