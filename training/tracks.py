@@ -49,13 +49,8 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
         styles = (circuit_corners,) if isinstance(circuit_corners, str) else circuit_corners
         # No draw for a single style: the same seed gives the same circuits as before.
         style = styles[int(rng.integers(len(styles)))] if len(styles) > 1 else styles[0]
-        if style == "bspline":
-            spec = random_circuit(rng, width=width, cell=BSPLINE_CELL, chicanes=(0, 2),
-                                  corners="bspline", jitter=0.08)
-        else:
-            spec = random_circuit(rng, width=width, chicanes=(0, 2),
-                                  cell=HAIRPIN_CELL if style == "hairpins" else (1.3, 2.2),
-                                  corner_radius=(max(0.5, 0.6 * width), 0.7))
+        spec = random_circuit(rng, width=width, chicanes=(0, 2),
+                              corner_radius=(max(0.5, 0.6 * width), 0.7), **CIRCUIT_STYLES[style])
         return _maybe_reversed(rng, spec, reverse_share)
     if tight_share > 0 and rng.random() < tight_share:
         width: float | tuple[float, float] = float(rng.uniform(narrowest, TIGHT_WIDTH[1]))
@@ -83,21 +78,26 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
 
 TIGHT_LENGTH = (14.0, 22.0)
 """Lap-length range of ``random_training_track``'s tight tracks [m] (``technical``: 20 m)."""
-CIRCUIT_STYLES = {
-    "arcs": "every grid corner a 0.5-0.7 m arc, straights between, cells of 1.3-2.2 m: 25-48 % "
-            "of the lap under 1 m radius (10th-90th percentile)",
-    "bspline": "the outline's B-spline on cells of BSPLINE_CELL: round hairpins and esses with "
-               "no straights between, 26-39 % of the lap under 1 m",
-    "hairpins": "arcs on cells of HAIRPIN_CELL: a one-cell bay or peninsula is a semicircle, "
-                "its legs 0.36-0.84 m apart at the borders (technical's bay: 0.5 m)",
-}
-"""The ``circuit_corners`` styles of ``random_training_track``'s circuits."""
 HAIRPIN_CELL = (1.26, 1.6)
 """Cell sizes of the hairpin circuits [m]: 2 x 0.63 m, the semicircle of ``technical``'s
 tightest hairpin (legs 0.5 m apart at the borders), to 1.6 m."""
 BSPLINE_CELL = (1.5, 1.9)
 """Cell sizes of the B-spline circuits [m]: right angles of 0.53-0.67 m radius, legs of a
 hairpin 0.6-1.1 m apart at the borders (``technical``: 0.5-0.7 m)."""
+CIRCUIT_STYLES: dict[str, dict[str, Any]] = {
+    "arcs": {},
+    "bspline": {"corners": "bspline", "cell": BSPLINE_CELL, "jitter": 0.08},
+    "hairpins": {"cell": HAIRPIN_CELL},
+}
+"""The ``circuit_corners`` styles of ``random_training_track``'s circuits: ``random_circuit``'s
+arguments for each.
+
+- ``"arcs"``: its defaults, every grid corner a 0.5-0.7 m arc, straights between, cells of
+  1.3-2.2 m: 25-48 % of the lap under 1 m radius (10th-90th percentile).
+- ``"bspline"``: the outline's B-spline on cells of ``BSPLINE_CELL`` (``corner_radius`` unused):
+  round hairpins and esses with no straights between, 26-39 % of the lap under 1 m.
+- ``"hairpins"``: arcs on cells of ``HAIRPIN_CELL``: a one-cell bay or peninsula is a
+  semicircle, its legs 0.36-0.84 m apart at the borders (``technical``'s bay: 0.5 m)."""
 TIGHT_WIDTH = (0.76, 0.9)
 """Width range of the tight tracks [m] (``technical``: 0.76 m)."""
 

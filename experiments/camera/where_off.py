@@ -20,6 +20,7 @@ import h2h_racing.sensors.camera as camera
 from h2h_racing.policies import make_driver
 from h2h_racing.track_io import load_track
 from h2h_racing.training.evaluate import evaluate
+from speed_capped import SpeedCapped  # beside this script
 
 
 _window: tuple[float, float] | None = None
@@ -31,32 +32,21 @@ def _masked_draw(self: Any, track: Any, rows: int, cols: int) -> np.ndarray:
     image = _draw(self, track, rows, cols)
     if _window is None:
         return image
-    s = np.arange(0.0, track.length, 0.02)
-    centre = track.point_at(s)
     x0, y1 = self.origin
     b, a = np.mgrid[0:rows, 0:cols]
-    pixels = np.stack([x0 + a.ravel() * self.resolution, y1 - b.ravel() * self.resolution], 1)
-    nearest = np.empty(len(pixels), dtype=np.int64)
-    distance = np.empty(len(pixels))
-    for first in range(0, len(pixels), 4096):
-        d = np.linalg.norm(pixels[first:first + 4096, None] - centre[None], axis=2)
-        nearest[first:first + 4096] = d.argmin(axis=1)
-        distance[first:first + 4096] = d.min(axis=1)
+    s, d = track.project(np.stack([x0 + a * self.resolution, y1 - b * self.resolution], -1))
     low, high = _window
-    outside = (s[nearest] - low) % track.length > (high - low) % track.length
-    image[((distance < 0.6) & outside).reshape(rows, cols)] = camera.FLOOR
+    outside = (s - low) % track.length > (high - low) % track.length
+    image[(np.abs(d) < 0.6) & outside] = camera.FLOOR
     return image
 
 
-class Recorder:
-    """Drives with ``driver`` (speed action capped at ``cap``); records arc position, offset and
-    the core's count of off-tracks before each step."""
-
-    def __init__(self, driver: Any, cap: float) -> None:
-        self.driver, self.cap, self.name = driver, cap, "recorded"
+class Recorder(SpeedCapped):
+    """``speed_capped.py``'s capped driver, recording arc position, offset and the core's count
+    of off-tracks before each step."""
 
     def reset(self, core: Any) -> None:
-        self.driver.reset(core)
+        super().reset(core)
         self.s: list[np.ndarray] = []
         self.d: list[np.ndarray] = []
         self.off: list[np.ndarray] = []
@@ -65,9 +55,7 @@ class Recorder:
         self.s.append(core.s[:, car].copy())
         self.d.append(core.d[:, car].copy())
         self.off.append(core.off_tracks[:, car].copy())
-        action = np.array(self.driver.act(core, car), dtype=np.float64)
-        action[:, 1] = np.minimum(action[:, 1], self.cap)
-        return action
+        return super().act(core, car)
 
 
 def attempts(policy: str, track: str, cap: float, episodes: int = 20
