@@ -15,6 +15,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
+import numpy as np
+
 from h2h_racing.config import EnvConfig, RaceRules, RewardConfig
 from h2h_racing.config_sensors import HFOV_RANGE_DEG, MAX_FRAME_STACK
 from h2h_racing.training.camera_network import check_camera, cnn_config
@@ -26,6 +28,7 @@ from h2h_racing.training.teachers import load_teacher
 from h2h_racing.training.toml_types import build_tables
 from h2h_racing.training.tracks import ProceduralTracks
 from h2h_racing.training.vec_env import ACTOR_GROUPS, OBSERVATIONS, PoolOpponent, RacingVecEnv
+from h2h_racing.training.vec_env_tracks import TrackGroups
 
 STD_FLOOR = 1e-6
 """Smallest policy standard deviation (rsl-rl's own floor) when ``TrainConfig.max_std`` is set."""
@@ -273,6 +276,14 @@ class TrainConfig:
                              f"{self.procedural!r}")
         if self.num_envs < 1 or self.num_steps_per_env < 1:
             raise ValueError("TrainConfig.num_envs and num_steps_per_env must be >= 1")
+        if self.procedural.tracks > 1 and self.track != PROCEDURAL:
+            raise ValueError(f"[procedural] tracks = {self.procedural.tracks} races several "
+                             f"random tracks at once: set track = 'procedural' (got "
+                             f"{self.track!r}), or leave tracks at 1")
+        if self.num_envs % self.procedural.tracks:
+            raise ValueError(f"TrainConfig.num_envs ({self.num_envs}) must split evenly into "
+                             f"[procedural] tracks ({self.procedural.tracks}) groups of copies; "
+                             f"make num_envs a multiple of tracks")
         if self.max_std is not None and not (isinstance(self.max_std, (int, float))
                                              and self.max_std > STD_FLOOR):
             raise ValueError(f"TrainConfig.max_std must be None or a number > {STD_FLOOR}, got "
@@ -457,17 +468,30 @@ class TrainConfig:
             "critic": critic,
         }
 
-    def make_env(self, device: str = "cpu", simtrace: str | Path | None = None) -> RacingVecEnv:
+    def make_env(self, device: str = "cpu",
+                 simtrace: str | Path | None = None) -> RacingVecEnv | TrackGroups:
         """Build the VecEnv for this config (logging ``simtrace_envs`` copies to ``simtrace``
-        when both are given)."""
+        when both are given): a ``RacingVecEnv``, or with ``[procedural] tracks`` > 1 a
+        ``TrackGroups`` of that many, each with its share of the copies and a seed of its own
+        (spawned from ``seed``)."""
         log = None if simtrace is None or not self.simtrace_envs else str(simtrace)
-        opponent: Any = self.opponent
-        if opponent is not None and "," in opponent:
-            names = self.opponents()
-            opponent = PoolOpponent(tuple(names[e % len(names)] for e in range(self.num_envs)),
-                                    seed=self.seed)
-        return RacingVecEnv(self.env_config(), num_envs=self.num_envs, learners=self.learners,
-                            opponent=opponent, observations=self.observations,
-                            seed=self.seed, device=device, reward_function=self.reward_function,
-                            simtrace=log, simtrace_envs=max(self.simtrace_envs, 1),
-                            expert=self.imitation.expert(), race_types=self.race.race_types)
+        groups = self.procedural.tracks
+        size = self.num_envs // groups
+        seeds = ([self.seed] if groups == 1 else
+                 [int(s.generate_state(1)[0]) for s in np.random.SeedSequence(self.seed).spawn(
+                     groups)])
+        envs = []
+        for k, seed in enumerate(seeds):
+            opponent: Any = self.opponent
+            if opponent is not None and "," in opponent:
+                names = self.opponents()
+                opponent = PoolOpponent(tuple(names[e % len(names)]
+                                              for e in range(k * size, (k + 1) * size)),
+                                        seed=seed)
+            envs.append(RacingVecEnv(
+                self.env_config(), num_envs=size, learners=self.learners, opponent=opponent,
+                observations=self.observations, seed=seed, device=device,
+                reward_function=self.reward_function, simtrace=log,
+                simtrace_envs=max(self.simtrace_envs, 1), expert=self.imitation.expert(),
+                race_types=self.race.race_types))
+        return envs[0] if groups == 1 else TrackGroups(envs)

@@ -123,6 +123,10 @@ class ProceduralTracks:
 
     every: int = 10
     """Iterations between track changes."""
+    tracks: int = 1
+    """Random tracks raced at once: the copies are split into this many groups, each on a
+    track of its own (``TrackGroups``), so that every rollout and mini-batch mixes them; with
+    one, every iteration's gradient steps pull the policy towards one track."""
     varying_share: float = 0.0
     """Share of tracks whose width varies along the lap. 0 (as ``ppo_procedural``): three
     10-15 minute runs with 0.3, corners down to 0.45 m and laps from 15 m generalised worse
@@ -164,6 +168,10 @@ class ProceduralTracks:
                 and self.every >= 1):
             raise ValueError(f"[procedural] every must be an integer >= 1 (iterations), got "
                              f"{self.every!r}")
+        if not (isinstance(self.tracks, int) and not isinstance(self.tracks, bool)
+                and self.tracks >= 1):
+            raise ValueError(f"[procedural] tracks must be an integer >= 1 (random tracks raced "
+                             f"at once), got {self.tracks!r}")
         for name in ("varying_share", "reverse_share", "tight_share", "circuit_share"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ValueError(f"[procedural] {name} must be in [0, 1], got "

@@ -39,6 +39,7 @@ from h2h_racing.training.policy_file import (  # noqa: E402
     load_actor, load_init, policy_payload, save_policy)
 from h2h_racing.training.teachers import load_teacher  # noqa: E402
 from h2h_racing.training.train_progress import TrainDisplay, quiet  # noqa: E402
+from h2h_racing.training.vec_env_tracks import TrackGroups  # noqa: E402
 from h2h_racing.progress import Mode  # noqa: E402
 
 
@@ -86,7 +87,11 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
         if procedural:
             every = config.procedural.every
             if done % every == 0:
-                env.set_track(config.procedural.draw(tracks))
+                drawn = [config.procedural.draw(tracks) for _ in range(config.procedural.tracks)]
+                if isinstance(env, TrackGroups):
+                    env.set_tracks(drawn)
+                else:
+                    env.set_track(drawn[0])
             step = min(step, every - done % every)
         if eval_every:
             step = min(step, eval_every - done % eval_every)
