@@ -430,6 +430,10 @@ class TrainConfig:
                 teacher_groups = ["policy"]
                 teacher_model = {**copy.deepcopy(teacher["actor_cfg"]),
                                  "class_name": "h2h_racing.training.teachers:ClippedTeacher"}
+                if self.imitation.pace != 1.0:
+                    _, _, speed_mid, speed_half = self.env_config().action_affine
+                    teacher_model.update(pace=self.imitation.pace, speed_mid=speed_mid,
+                                         speed_half=speed_half)
             return {
                 "num_steps_per_env": self.num_steps_per_env,
                 "save_interval": 50,

@@ -37,6 +37,11 @@ class ImitationConfig:
     """Constructor arguments of the scripted driver that labels actions (a scripted
     ``teacher`` or the ``driver``), e.g. ``{"grip_factor": 0.6, "margin": 0.2}`` for a
     ``RacingLine`` that corners at 60 % of the grip and keeps 0.2 m from the borders."""
+    pace: float = 1.0
+    """Share of a policy ``teacher``'s commanded speed that its labels command
+    (``ClippedTeacher``), in [0.5, 1]: 0.95 teaches the student to drive 5 % below the
+    teacher's speed everywhere, off the limit of grip where its imitation errors put it off
+    the track. 1 labels the teacher's own actions."""
     driver: str | None = None
     """A scripted driver (``SCRIPTED_TEACHERS``) that PPO's actor is kept near with ``coef``."""
     coef: float = 0.0
@@ -51,6 +56,15 @@ class ImitationConfig:
         if not (isinstance(self.coef, (int, float)) and not isinstance(self.coef, bool)
                 and self.coef >= 0):
             raise ValueError(f"[imitation] coef must be a number >= 0, got {self.coef!r}")
+        if (isinstance(self.pace, bool) or not isinstance(self.pace, (int, float))
+                or not 0.5 <= self.pace <= 1.0):
+            raise ValueError(f"[imitation] pace must be a number in [0.5, 1] (the share of "
+                             f"the teacher's commanded speed its labels command), got "
+                             f"{self.pace!r}")
+        if self.pace != 1.0 and (self.teacher is None or self.scripted_teacher):
+            raise ValueError(f"[imitation] pace scales a policy teacher's speed labels, but "
+                             f"teacher is {self.teacher!r}; name a policy (teacher = "
+                             f"\"ppo_generalist\"), or slow a scripted driver with its options")
         if self.driver is not None and self.driver not in SCRIPTED_TEACHERS:
             raise ValueError(f"[imitation] driver must be one of {SCRIPTED_TEACHERS}, got "
                              f"{self.driver!r}")

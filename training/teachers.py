@@ -31,10 +31,25 @@ class ClippedTeacher(MLPModel):  # type: ignore[misc]
     (a trained actor's raw steering can read 30 where the env applies 1). Regressing a student
     onto the raw means would spend its loss on those excursions; the clipped actions are what
     the teacher drives.
+
+    With ``pace`` < 1 the speed label commands ``pace`` times the teacher's commanded speed:
+    with the action's affine map ``speed = mid + a * half`` [m/s] (``EnvConfig.action_affine``),
+    ``a' = (pace * (mid + a * half) - mid) / half``. The student then learns to drive below the
+    teacher's limit of grip, where its imitation errors cost less (``[imitation] pace``).
     """
 
+    def __init__(self, *args: Any, pace: float = 1.0, speed_mid: float = 0.0,
+                 speed_half: float = 1.0, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.pace, self.speed_mid, self.speed_half = pace, speed_mid, speed_half
+
     def forward(self, *args: Any, **kwargs: Any) -> torch.Tensor:
-        return super().forward(*args, **kwargs).clamp(-1.0, 1.0)
+        actions = super().forward(*args, **kwargs).clamp(-1.0, 1.0)
+        if self.pace == 1.0:
+            return actions
+        speed = self.speed_mid + actions[..., 1:] * self.speed_half
+        label = (self.pace * speed - self.speed_mid) / self.speed_half
+        return torch.cat([actions[..., :1], label.clamp(-1.0, 1.0)], dim=-1)
 
 
 class ScriptedTeacher(torch.nn.Module):

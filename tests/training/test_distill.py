@@ -106,6 +106,37 @@ class TestDistillation:
         assert torch.equal(actions, means.clamp(-1.0, 1.0))
         assert isinstance(runner.alg.teacher, ClippedTeacher)
 
+    def test_pace_scales_the_commanded_speed_of_the_labels(
+            self, distilled: tuple[Path, object]) -> None:
+        from h2h_racing.training.teachers import ClippedTeacher
+
+        runner = distilled[1]
+        obs = runner.env.get_observations()  # type: ignore[attr-defined]
+        cfg = {k: v for k, v in runner.cfg["teacher"].items() if k != "class_name"}
+        assert "pace" not in cfg
+        env = STUDENT_CONFIG.env_config()
+        speed_mid, speed_half = env.action_affine[2:]
+        # The labels of 0.9 of the teacher's speed command 0.9 x its speed in m/s, through the
+        # env's own action map (EnvConfig.commands), and steer as the teacher does.
+        slow = ClippedTeacher(obs, {"teacher": ["policy"]}, "teacher", 2, **cfg, pace=0.9,
+                              speed_mid=speed_mid, speed_half=speed_half)
+        slow.load_state_dict(runner.alg.teacher.state_dict())
+        slow.eval()
+        with torch.inference_mode():
+            own, labels = runner.alg.teacher(obs), slow(obs)
+        own_steer, own_speed = env.commands(own.numpy())
+        steer, speed = env.commands(labels.numpy())
+        assert np.allclose(speed, 0.9 * own_speed, atol=1e-5) and np.array_equal(steer, own_steer)
+        # Every label is below the teacher's: 0.9 x speed < speed for speeds above 0.
+        assert (speed < own_speed).all()
+        # A run's pace reaches its teacher with the env's speed map: 0.5-4 m/s is 2.25 +- 1.75.
+        paced = dataclasses.replace(STUDENT_CONFIG, imitation=ImitationConfig(
+            teacher="ppo_generalist", pace=0.9))
+        teacher = paced.rsl_rl_dict(teacher={"actor_cfg": {}})["teacher"]
+        assert (teacher["pace"], teacher["speed_mid"], teacher["speed_half"]) == (0.9, 2.25, 1.75)
+        with pytest.raises(ValueError, match=r"pace must be a number in \[0.5, 1\]"):
+            ImitationConfig(teacher="ppo_generalist", pace=1.2)
+
     def test_student_file_is_a_camera_only_policy(self, distilled: tuple[Path, object]) -> None:
         payload = torch.load(distilled[0], weights_only=True)
         assert payload["observations"] == "camera_only"
