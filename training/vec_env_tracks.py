@@ -45,10 +45,15 @@ class TrackGroups(VecEnv):
         self.num_actions = first.num_actions
         self.max_episode_length = max(group.max_episode_length for group in groups)
         self.device = first.device
-        self.cfg = first.cfg
         self._sizes = [group.num_envs for group in groups]
         self.episode_length_buf = torch.cat([group.episode_length_buf for group in groups])
         self._obs = self._gather()
+
+    @property
+    def cfg(self) -> dict[str, Any]:  # type: ignore[override]
+        """Group 0's env config as a dict (every group's but its race type, which takes turns
+        with ``race_types``)."""
+        return self.groups[0].cfg
 
     @property
     def tracks(self) -> list[Track]:
