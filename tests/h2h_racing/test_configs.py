@@ -20,7 +20,11 @@ def test_shipped_league_configs_are_the_product_ones() -> None:
 
 def test_shipped_training_configs_are_named_by_policy_and_step() -> None:
     shipped = shipped_configs("train")
-    assert sorted(shipped) == ["camera_racer/imitate", "obstacle_generalist/anneal",
+    assert sorted(shipped) == ["camera_generalist/anneal", "camera_generalist/bspline",
+                               "camera_generalist/distill", "camera_generalist/hairpins",
+                               "camera_generalist/pace", "camera_generalist/settle",
+                               "camera_generalist/wide",
+                               "camera_racer/imitate", "obstacle_generalist/anneal",
                                "obstacle_generalist/bots", "obstacle_generalist/circuits",
                                "obstacle_generalist/imitate",
                                "obstacle_generalist/settle", "obstacle_generalist/tight",
@@ -51,8 +55,11 @@ def test_unknown_names_list_the_shipped_ones() -> None:
                        r"shipped league config of that name; shipped: recommended, smoke"):
         resolve_config("finishing", "league")
     # A training config is not a league config, and the other way round.
-    with pytest.raises(FileNotFoundError, match="shipped: camera_racer/imitate, "
-                       "obstacle_generalist/anneal, obstacle_generalist/bots, "
+    with pytest.raises(FileNotFoundError, match="shipped: camera_generalist/anneal, "
+                       "camera_generalist/bspline, camera_generalist/distill, "
+                       "camera_generalist/hairpins, camera_generalist/pace, "
+                       "camera_generalist/settle, camera_generalist/wide, "
+                       "camera_racer/imitate, obstacle_generalist/anneal, obstacle_generalist/bots, "
                        "obstacle_generalist/circuits, obstacle_generalist/imitate, "
                        "obstacle_generalist/settle, "
                        "obstacle_generalist/tight, ppo_generalist/finetune, "
@@ -69,7 +76,7 @@ def test_the_cli_names_the_shipped_configs() -> None:
     with pytest.raises(SystemExit, match="shipped: recommended, smoke"):
         main(["league", "train", "--config", "no_such_league"])
     with pytest.raises(SystemExit,
-                       match="shipped: camera_racer/imitate, obstacle_generalist/anneal"):
+                       match="shipped: camera_generalist/anneal, camera_generalist/bspline"):
         main(["train", "--config", "no_such_step", "--out", "unused"])
 
 
