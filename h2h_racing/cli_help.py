@@ -21,8 +21,8 @@ EPILOG = """examples:
 Run 'h2h-racing COMMAND --help' for a command's options."""
 DRIVERS_HELP = ("comma-separated drivers, one per car: scripted (racing_line, pure_pursuit, "
                 "blocker, random), shipped policies (league_racer, ppo_generalist, "
-                "obstacle_generalist, camera_racer, camera_speedway, racing_line_student) or "
-                "policy.pt files")
+                "obstacle_generalist, camera_generalist, camera_racer, camera_speedway, "
+                "racing_line_student) or policy.pt files")
 SEED_HELP = "random seed (start points, noise)"
 
 
