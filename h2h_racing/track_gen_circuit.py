@@ -126,7 +126,7 @@ def random_circuit(
 
     rejections = {"pinch": 0, "radius": 0, "clearance": 0, "crossing": 0}
     for _ in range(max_tries):
-        path = _outline(_blob(rng, int(rng.integers(fewest, most + 1))), turns_only=False)
+        path = _outline(_blob(rng, int(rng.integers(fewest, most + 1))))
         columns = np.concatenate([[0.0], np.cumsum(rng.uniform(c_low, c_high, GRID[0]))])
         rows = np.concatenate([[0.0], np.cumsum(rng.uniform(c_low, c_high, GRID[1]))])
         turning = _turns(path)
@@ -195,10 +195,9 @@ def _has_hole(occupied: npt.NDArray[np.bool_]) -> bool:
     return bool((empty & ~reached).any())
 
 
-def _outline(occupied: npt.NDArray[np.bool_], turns_only: bool = True) -> npt.NDArray[np.int64]:
-    """The grid points where the blob's outline turns (``turns_only``; else every grid point
-    along it), in anticlockwise order, shape (K, 2); empty when the outline touches itself at
-    a grid point."""
+def _outline(occupied: npt.NDArray[np.bool_]) -> npt.NDArray[np.int64]:
+    """Every grid point along the blob's outline, in anticlockwise order, shape (K, 2) (its
+    corners: ``_turns``); empty when the outline touches itself at a grid point."""
     edges: dict[tuple[int, int], tuple[int, int]] = {}
     count = 0
     # Unit edges with the blob on their left: bottom, right, top and left sides of each cell.
@@ -216,8 +215,7 @@ def _outline(occupied: npt.NDArray[np.bool_], turns_only: bool = True) -> npt.ND
     loop = [first]
     while (point := edges[loop[-1]]) != first:
         loop.append(point)
-    path = np.array(loop, dtype=np.int64)
-    return path[_turns(path)] if turns_only else path
+    return np.array(loop, dtype=np.int64)
 
 
 def _turns(path: npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:

@@ -484,7 +484,7 @@ class TrainConfig:
         seeds = ([self.seed] if groups == 1 else
                  [int(s.generate_state(1)[0]) for s in np.random.SeedSequence(self.seed).spawn(
                      groups)])
-        envs = []
+        env_config, envs = self.env_config(), []
         for k, seed in enumerate(seeds):
             opponent: Any = self.opponent
             if opponent is not None and "," in opponent:
@@ -493,7 +493,7 @@ class TrainConfig:
                                               for e in range(k * size, (k + 1) * size)),
                                         seed=seed)
             envs.append(RacingVecEnv(
-                self.env_config(), num_envs=size, learners=self.learners, opponent=opponent,
+                env_config, num_envs=size, learners=self.learners, opponent=opponent,
                 observations=self.observations, seed=seed, device=device,
                 reward_function=self.reward_function, simtrace=log,
                 simtrace_envs=max(self.simtrace_envs, 1), expert=self.imitation.expert(),

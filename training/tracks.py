@@ -167,14 +167,11 @@ class ProceduralTracks:
     ``"hairpins"``); one of them drawn per circuit when several are given."""
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.every, int) and not isinstance(self.every, bool)
-                and self.every >= 1):
-            raise ValueError(f"[procedural] every must be an integer >= 1 (iterations), got "
-                             f"{self.every!r}")
-        if not (isinstance(self.tracks, int) and not isinstance(self.tracks, bool)
-                and self.tracks >= 1):
-            raise ValueError(f"[procedural] tracks must be an integer >= 1 (random tracks raced "
-                             f"at once), got {self.tracks!r}")
+        for name, unit in (("every", "iterations"), ("tracks", "random tracks raced at once")):
+            value = getattr(self, name)
+            if not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
+                raise ValueError(f"[procedural] {name} must be an integer >= 1 ({unit}), got "
+                                 f"{value!r}")
         for name in ("varying_share", "reverse_share", "tight_share", "circuit_share"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ValueError(f"[procedural] {name} must be in [0, 1], got "

@@ -46,8 +46,7 @@ class TrackGroups(VecEnv):
         self.max_episode_length = max(group.max_episode_length for group in groups)
         self.device = first.device
         self._sizes = [group.num_envs for group in groups]
-        self.episode_length_buf = torch.cat([group.episode_length_buf for group in groups])
-        self._obs = self._gather()
+        self._gather()
 
     @property
     def cfg(self) -> dict[str, Any]:  # type: ignore[override]
@@ -77,8 +76,7 @@ class TrackGroups(VecEnv):
                              f"every group), got shape {tuple(actions.shape)}")
         results = [group.step(rows)
                    for group, rows in zip(self.groups, torch.split(actions, self._sizes))]
-        self._obs = torch.cat([result[0] for result in results])
-        self.episode_length_buf = torch.cat([group.episode_length_buf for group in self.groups])
+        self._gather()
         logs = [result[3]["log"] for result in results if result[3]["log"]]
         keys = dict.fromkeys(key for log in logs for key in log)
         log = {key: float(np.mean([entry[key] for entry in logs if key in entry]))
@@ -99,13 +97,14 @@ class TrackGroups(VecEnv):
                              f"{len(tracks)}")
         for group, track in zip(self.groups, tracks):
             group.set_track(track)
-        self.episode_length_buf = torch.cat([group.episode_length_buf for group in self.groups])
-        self._obs = self._gather()
+        self._gather()
 
     def close(self) -> None:
         """Close every group."""
         for group in self.groups:
             group.close()
 
-    def _gather(self) -> TensorDict:
-        return torch.cat([group.get_observations() for group in self.groups])
+    def _gather(self) -> None:
+        """The groups' current observations and episode lengths, in group order."""
+        self._obs = torch.cat([group.get_observations() for group in self.groups])
+        self.episode_length_buf = torch.cat([group.episode_length_buf for group in self.groups])

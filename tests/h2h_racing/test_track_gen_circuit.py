@@ -16,7 +16,8 @@ from h2h_racing.track_gen import (
     signed_area,
     smooth_closed_curve,
 )
-from h2h_racing.track_gen_circuit import _bspline, _has_hole, _outline, _rounded, random_circuit
+from h2h_racing.track_gen_circuit import (_bspline, _has_hole, _outline, _rounded, _turns,
+                                         random_circuit)
 
 ARCS_SEED_4 = "circuit-c558ed2e"
 """``random_circuit(np.random.default_rng(4)).name`` before ``corners`` was added (b3164f8)."""
@@ -29,11 +30,17 @@ def blob(*cells: tuple[int, int]) -> np.ndarray:
     return occupied
 
 
+def turn_points(occupied: np.ndarray) -> np.ndarray:
+    """The grid points where the blob's outline turns, in its order."""
+    path = _outline(occupied)
+    return path[_turns(path)]
+
+
 class TestOutline:
     def test_l_shape_turns_at_its_six_corners_anticlockwise(self) -> None:
         # Cells (0,0), (1,0), (0,1): the outline runs (0,0) (2,0) (2,1) (1,1) (1,2) (0,2),
         # anticlockwise; (1,1) is the one right-hand (reflex) corner.
-        corners = _outline(blob((0, 0), (1, 0), (0, 1)))
+        corners = turn_points(blob((0, 0), (1, 0), (0, 1)))
         start = int(np.flatnonzero((corners == (0, 0)).all(axis=1))[0])
         assert np.roll(corners, -start, axis=0).tolist() == [[0, 0], [2, 0], [2, 1], [1, 1],
                                                             [1, 2], [0, 2]]
@@ -41,17 +48,17 @@ class TestOutline:
 
     def test_every_grid_point_of_the_outline_in_order(self) -> None:
         # The same L: 8 unit edges around it, the turn points among them in the same order.
-        path = _outline(blob((0, 0), (1, 0), (0, 1)), turns_only=False)
+        path = _outline(blob((0, 0), (1, 0), (0, 1)))
         assert len(path) == 8
         steps = np.abs(np.roll(path, -1, axis=0) - path).sum(axis=1)
         assert (steps == 1).all()
-        turns = _outline(blob((0, 0), (1, 0), (0, 1)))
+        turns = turn_points(blob((0, 0), (1, 0), (0, 1)))
         assert [p for p in path.tolist() if p in turns.tolist()] == turns.tolist()
 
     def test_cells_meeting_at_a_corner_pinch_the_outline(self) -> None:
         # A staircase of 6 cells turns 12 times; without its step cells it pinches.
-        assert _outline(blob((0, 0), (1, 1), (1, 0), (2, 1), (2, 2), (3, 2))).shape == (12, 2)
-        assert _outline(blob((0, 0), (1, 1))).shape == (0, 2)
+        assert turn_points(blob((0, 0), (1, 1), (1, 0), (2, 1), (2, 2), (3, 2))).shape == (12, 2)
+        assert turn_points(blob((0, 0), (1, 1))).shape == (0, 2)
 
     def test_a_ring_of_cells_has_a_hole(self) -> None:
         ring = [(x, y) for x in range(3) for y in range(3) if (x, y) != (1, 1)]
