@@ -314,3 +314,25 @@ def compute_race_line(track: Track, car: CarParams, v_max: float, *, ds: float =
                     speed=speed, lap_time=lap_time, track_length=track.length)
     per_track[key] = line
     return line
+
+
+def reference_lap_time(track: Track, car: CarParams, v_max: float, *,
+                       margin: float = 0.12) -> float:
+    """Return the minimum-time reference lap of a track [s]: an estimate, not a lap driven.
+
+    The racing line's own path (the one ``racing_line`` drives, ``margin`` from the borders)
+    with the speed profile of a point mass at the car's full grip, acceleration and braking
+    (``compute_race_line(..., grip_factor=1, accel_factor=1, brake_factor=1).lap_time``: a
+    flying lap, cornering at ``mu g``, no controller lag, no weight transfer, braking and
+    cornering never combined). A real car lags it, and a faster path may exist; it bounds
+    what a driver of this path can gain over ``racing_line``, whose own profile uses 60 % of
+    the grip, 90 % of the acceleration and 60 % of the braking.
+
+    Args:
+        track: The track.
+        car: Car parameters (friction, acceleration and braking limits).
+        v_max: Top speed [m/s] (the env's ``config.max_speed``).
+        margin: Distance kept from each border by the path [m].
+    """
+    return compute_race_line(track, car, v_max, margin=margin, grip_factor=1.0,
+                             accel_factor=1.0, brake_factor=1.0).lap_time

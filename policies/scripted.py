@@ -19,12 +19,11 @@ through ``p`` and ``q`` has curvature ``2 sin(alpha) / l_d``, hence the steering
 neutral steer (``l_f C_f = l_r C_r``), so the kinematic angle holds up to the grip limit.
 
 Run ``python -m h2h_racing.policies`` for the lap-time table of every driver on
-every catalogue track.
+every catalogue track (:mod:`h2h_racing.policies.lap_times`).
 """
 
 from __future__ import annotations
 
-import argparse
 import math
 from collections.abc import Callable, Sequence
 from typing import Any, Protocol, runtime_checkable
@@ -36,6 +35,7 @@ from h2h_racing.config import EnvConfig, RaceRules
 from h2h_racing.core import RaceCore
 from h2h_racing.policies.obstacles import avoid_obstacles
 from h2h_racing.policies.racing_line import GRAVITY, RaceLine, compute_race_line
+from h2h_racing.policies.registry import Setting, make_driver  # make_driver: re-exported
 from h2h_racing.track import Track
 
 FloatArray = npt.NDArray[np.float64]
@@ -146,6 +146,15 @@ class PurePursuit:
     """
 
     name = "pure_pursuit"
+    SETTINGS = {  # what a spec may set (h2h_racing.policies.registry); its pace: the first two
+        "cruise_speed": Setting(0.0, 4.0, "speed on straights [m/s]", low_open=True),
+        "lateral_accel": Setting(0.0, 1.0, "fraction of mu g in corners", low_open=True),
+        "preview": Setting(0.0, 5.0, "distance whose curvature caps the speed [m]"),
+        "lookahead_base": Setting(0.0, 2.0, "look-ahead at standstill [m]", low_open=True),
+        "lookahead_gain": Setting(0.0, 1.0, "look-ahead per m/s [s]"),
+        "offset": Setting(-0.5, 0.5, "lateral offset from the centre line [m], left +"),
+        "box_clearance": Setting(0.0, 0.5, "gap kept from a box's side [m]"),
+    }
 
     def __init__(self, cruise_speed: float = 2.5, lateral_accel: float = 0.45,
                  preview: float = 2.0, lookahead_base: float = 0.35,
@@ -222,6 +231,19 @@ class RacingLine:
     """
 
     name = "racing_line"
+    SETTINGS = {  # what a spec may set (h2h_racing.policies.registry); its pace: grip_factor
+        "grip_factor": Setting(0.0, 1.0, "fraction of mu g in corners", low_open=True),
+        "margin": Setting(0.0, 0.3, "distance kept from each border [m]"),
+        "speed_preview": Setting(0.0, 2.0, "horizon of the speed command [s]"),
+        "lookahead_base": Setting(0.0, 2.0, "look-ahead at standstill [m]", low_open=True),
+        "lookahead_gain": Setting(0.0, 1.0, "look-ahead per m/s [s]"),
+        "follow_gap": Setting(0.0, 5.0, "distance ahead within which a car is avoided [m]"),
+        "closing_speed": Setting(0.0, 4.0, "speed excess over a car avoided [m/s]"),
+        "box_clearance": Setting(0.0, 0.5, "gap kept from a box's side [m]"),
+        "box_speed_cap": Setting(0.0, 4.0, "speed cap near a box [m/s]", low_open=True),
+        "box_bend_grip": Setting(0.0, 1.0, "fraction of mu g round a box on a bend",
+                                 low_open=True),
+    }
 
     def __init__(self, grip_factor: float = 0.6, margin: float = 0.12,
                  speed_preview: float = 0.3, lookahead_base: float = 0.35,
@@ -352,6 +374,12 @@ class Blocker(PurePursuit):
     """
 
     name = "blocker"
+    SETTINGS = {  # its own, then PurePursuit's but the offset (it steers for its lane)
+        "lane": Setting(None, None, "lane it drives", choices=("inner", "outer")),
+        "cover_gap": Setting(0.0, 5.0, "distance behind within which it covers [m]"),
+        "margin": Setting(0.0, 0.3, "distance kept from each border when covering [m]"),
+        **{k: v for k, v in PurePursuit.SETTINGS.items() if k != "offset"},
+    }
 
     def __init__(self, lane: str = "inner", cruise_speed: float = 2.2, cover_gap: float = 1.5,
                  margin: float = 0.15, **kwargs: Any) -> None:
@@ -420,42 +448,6 @@ TEACHERS = ("racing_line", "pure_pursuit", "blocker")
 ``random`` teaches nothing)."""
 
 
-def make_driver(name: str, *, seed: int | None = None, **kwargs: Any) -> Driver:
-    """Build a scripted driver by name.
-
-    >>> make_driver("pure_pursuit", cruise_speed=2.0).name
-    'pure_pursuit'
-
-    Args:
-        name: One of ``DRIVERS`` (``"pure_pursuit"``, ``"racing_line"``, ``"blocker"``,
-            ``"random"``; ``"random"`` needs ``rng=np.random.default_rng(seed)``), a shipped
-            trained policy (``policies/trained/<name>/policy.pt``, e.g. ``"league_racer"``), or
-            the path of a ``policy.pt`` (see ``h2h_racing.policies.trained``).
-        seed: Seeds the ``random`` driver's generator when no ``rng`` is given (other
-            drivers are deterministic and ignore it).
-        **kwargs: Constructor arguments of the driver.
-
-    Raises:
-        ValueError: If the name is unknown.
-    """
-    from h2h_racing.policies.trained import TrainedPolicy, shipped_policies
-
-    if name.endswith(".pt"):
-        return TrainedPolicy(name, **kwargs)
-    shipped = shipped_policies()
-    if name in shipped:
-        return TrainedPolicy(shipped[name], name=name, **kwargs)
-    if name not in DRIVERS:
-        raise ValueError(f"unknown driver {name!r}; known drivers are "
-                         f"{sorted(DRIVERS) + sorted(shipped)} or the path of a policy.pt")
-    if name == "random" and "rng" not in kwargs:
-        if seed is None:
-            raise ValueError("the random driver needs a generator: make_driver('random', "
-                             "seed=N) or make_driver('random', rng=np.random.default_rng(N))")
-        kwargs["rng"] = np.random.default_rng(seed)
-    return DRIVERS[name](**kwargs)
-
-
 # ---------------------------------------------------------------------- running races
 
 
@@ -505,29 +497,3 @@ def race_core(track: str | Track, num_cars: int, laps: int = 1, num_envs: int = 
     core = RaceCore(cfg, track_obj, num_envs=num_envs)
     core.reset(seed=seed)
     return core
-
-
-def lap_time_table(argv: Sequence[str] | None = None) -> None:
-    """Print the one-lap time of each driver alone on each catalogue track."""
-    from h2h_racing.track_io import list_tracks, load_track
-
-    parser = argparse.ArgumentParser(description=lap_time_table.__doc__)
-    parser.add_argument("--drivers", nargs="+", default=["pure_pursuit", "racing_line", "blocker"])
-    parser.add_argument("--tracks", nargs="+", default=None)
-    args = parser.parse_args(argv)
-    tracks = args.tracks or list_tracks()
-    print("| track | " + " | ".join(args.drivers) + " |")
-    print("|---|" + "---|" * len(args.drivers))
-    for name in tracks:
-        track = load_track(name)
-        cells = []
-        for driver_name in args.drivers:
-            core = race_core(track, 1)
-            drive(core, [make_driver(driver_name)])
-            lap = core.lap_times[0][0]
-            text = f"{lap[0]:.2f} s" if lap else "DNF"
-            if core.off_tracks[0, 0]:
-                text += f" ({int(core.off_tracks[0, 0])} off)"
-            cells.append(text)
-        print(f"| {name} | " + " | ".join(cells) + " |")
-
