@@ -34,6 +34,17 @@ def _check_name(what: str, name: Any) -> None:
                          f"starting with '-'; it names a folder), got {name!r}")
 
 
+def _anchor(name: Any, key: str = "anchors") -> str:
+    """An anchor as its player is named: a scripted driver's spec written back
+    (``canonical_spec``), else the shipped policy's name or ``policy.pt`` path as given."""
+    from h2h_racing.policies.registry import canonical_spec
+
+    try:
+        return canonical_spec(name)
+    except ValueError as err:
+        raise ValueError(f"LeagueConfig.{key}: {err}") from None
+
+
 def _is_int(value: Any, low: int = 1) -> bool:
     return _is_integer(value) and value >= low
 
@@ -275,7 +286,9 @@ class LeagueConfig:
         LearnerSpec(name="league_exploiter", role="league_exploiter"))
     """The learners and their roles; at least one ``main``."""
     anchors: tuple[str, ...] = ("racing_line", "pure_pursuit", "blocker")
-    """Scripted drivers (or shipped policies) that stay in the pool as fixed anchors."""
+    """Scripted drivers (with any settings, ``racing_line:grip_factor=0.7``; kept as their
+    spec written back, the player's name) or shipped policies that stay in the pool as fixed
+    anchors."""
     rating_anchor: str = "racing_line"
     """Player held at 1000 in the ratings (must be one of ``anchors``)."""
     init: str | None = "racing_line_student"
@@ -323,6 +336,12 @@ class LeagueConfig:
         names = [s.name for s in self.learners]
         if len(set(names)) != len(names):
             raise ValueError(f"learner names must be distinct, got {names}")
+        if isinstance(self.anchors, str) or not all(isinstance(a, str) for a in self.anchors):
+            raise ValueError(f"LeagueConfig.anchors must be a list of driver names, got "
+                             f"{self.anchors!r}")
+        # Each anchor as its player is named (a scripted driver's spec written back).
+        object.__setattr__(self, "anchors", tuple(_anchor(a) for a in self.anchors))
+        object.__setattr__(self, "rating_anchor", _anchor(self.rating_anchor, "rating_anchor"))
         if set(names) & set(self.anchors):
             raise ValueError(f"learner names {sorted(set(names) & set(self.anchors))} clash "
                              f"with anchors")

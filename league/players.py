@@ -34,13 +34,22 @@ def file_sha256(path: str | Path) -> str:
 
 
 def player_for(name: str) -> Player:
-    """A ``Player`` for a driver given as on the command line: a scripted or shipped driver
-    name, or a ``policy.pt`` path (hashed, so a changed file is caught)."""
+    """A ``Player`` for a driver given as on the command line: a scripted driver with any
+    settings (``racing_line:grip_factor=0.7``; the player is named by its spec written back,
+    ``canonical_spec``, so two spellings of one setting are one player), a shipped driver name,
+    or a ``policy.pt`` path (hashed, so a changed file is caught).
+
+    Raises:
+        ValueError: For an unknown player, or a scripted driver's bad setting
+            (``parse_driver_spec``'s one line).
+    """
     from h2h_racing.policies import DRIVERS
+    from h2h_racing.policies.registry import SEPARATOR, parse_driver_spec
     from h2h_racing.policies.trained import shipped_policies
 
-    if name in DRIVERS:
-        return Player(name=name, kind="scripted", role="anchor", checkpoint=name)
+    if name.split(SEPARATOR, 1)[0].strip() in DRIVERS:
+        spec = parse_driver_spec(name).text
+        return Player(name=spec, kind="scripted", role="anchor", checkpoint=spec)
     shipped = shipped_policies()
     if name in shipped:
         return Player(name=name, kind="policy", checkpoint=str(shipped[name]),
@@ -49,8 +58,11 @@ def player_for(name: str) -> Player:
     if path.suffix == ".pt" and path.is_file():
         return Player(name=_policy_name(path), kind="policy", checkpoint=str(path),
                       checkpoint_sha256=file_sha256(path))
-    raise ValueError(f"unknown player {name!r}: give a driver name ({', '.join(sorted(DRIVERS))}),"
-                     f" a shipped policy ({', '.join(sorted(shipped))}) or a policy.pt file")
+    if SEPARATOR in name and not name.endswith(".pt"):
+        parse_driver_spec(name)  # settings on a trained policy: its own one line
+    raise ValueError(f"unknown player {name!r}: give a driver name ({', '.join(sorted(DRIVERS))}"
+                     f", with any settings: racing_line:grip_factor=0.7), a shipped policy "
+                     f"({', '.join(sorted(shipped))}) or a policy.pt file")
 
 
 def _policy_name(path: Path) -> str:

@@ -56,7 +56,9 @@ class TournamentConfig:
     """What to play."""
 
     players: tuple[str, ...]
-    """Driver names, shipped policy names or ``policy.pt`` paths (see ``make_driver``)."""
+    """Driver names (scripted ones with any settings, ``racing_line:grip_factor=0.7``: the
+    player is named by its spec), shipped policy names or ``policy.pt`` paths (see
+    ``make_driver``)."""
     tracks: tuple[str, ...] = ("speedway",)
     """Catalogue names or track files."""
     races: int = 2
@@ -406,13 +408,18 @@ def run_tournament(config: TournamentConfig, store: LeagueStore, backend: Any | 
     """
     from h2h_racing.league.backends import InProcessBackend
     from h2h_racing.league.ratings import standings
+    from h2h_racing.policies.registry import SEPARATOR, canonical_spec
 
     backend = backend or InProcessBackend()
-    check_settings(config, store)
     players = [player_for(name) for name in config.players]
+    names = [p.name for p in players]
+    if len(set(names)) != len(names):
+        raise ValueError(f"players {list(config.players)} name the same player twice (as "
+                         f"{names}): a driver with the same settings, or two policy files "
+                         f"of one name")
+    check_settings(config, store)
     for player in players:
         store.add_player(player)
-    names = [p.name for p in players]
     config = dataclasses.replace(config, players=tuple(names))
     drivers = {p.name: p.checkpoint or p.name for p in players}
     done = store.done_keys(config.context + ":")
@@ -439,6 +446,8 @@ def run_tournament(config: TournamentConfig, store: LeagueStore, backend: Any | 
     # not depend on that (it equals `league table --context tournament:NAME`).
     races = store.races(context=config.context)
     anchor = config.anchor
+    if anchor is not None and anchor not in names and SEPARATOR in anchor:
+        anchor = canonical_spec(anchor)  # the player's name: racing_line:grip_factor=0.7
     if anchor is None and "racing_line" in names:
         anchor = "racing_line"
     rows = standings(races, anchor=anchor, anchor_rating=config.anchor_rating, n_boot=n_boot)

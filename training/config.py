@@ -19,6 +19,7 @@ import numpy as np
 
 from h2h_racing.config import EnvConfig, RaceRules, RewardConfig
 from h2h_racing.config_sensors import HFOV_RANGE_DEG, MAX_FRAME_STACK
+from h2h_racing.policies.registry import parse_driver_spec
 from h2h_racing.training.camera_network import check_camera, cnn_config
 from h2h_racing.training.config_file import read_train_toml
 from h2h_racing.training.device import check_device_name
@@ -147,9 +148,10 @@ class TrainConfig:
     num_cars: int = 1
     """Cars per env copy."""
     opponent: str | None = None
-    """Driver of the cars that are not learners: a ``h2h_racing.policies`` driver name or a
-    ``policy.pt``, or several separated by commas, which share the env copies (copy ``e``
-    races the ``e mod k``-th of the ``k`` names; ``PoolOpponent``)."""
+    """Driver of the cars that are not learners: a ``h2h_racing.policies`` driver name (with
+    any settings: ``racing_line:grip_factor=0.7``) or a ``policy.pt``, or several separated by
+    commas, which share the env copies (copy ``e`` races the ``e mod k``-th of the ``k``
+    names; ``PoolOpponent``)."""
     learners: int | None = None
     """Learner cars per copy; None means every car (self-play with parameter sharing)."""
     num_envs: int = 256
@@ -214,6 +216,15 @@ class TrainConfig:
     simtrace_envs: int = 0
     """Env copies whose DeepRacer simtrace + metrics logs ``train`` writes to
     ``OUT/simtrace`` (0-10; 0 writes none)."""
+    simtrace_episodes: int = 20
+    """Training episodes of each logged copy per simtrace iteration (its ``<i>-iteration.csv``
+    and, with ``simtrace_eval_trials``, one evaluation block); DeepRacer's
+    ``num_episodes_between_training``, 20, as one worker runs them."""
+    simtrace_eval_trials: int = 5
+    """DeepRacer's evaluation episodes after each simtrace training iteration of the first
+    logged copy, written to its metrics with ``phase: "evaluation"``
+    (``h2h_racing.training.simtrace_eval``; DeepRacer's ``MIN_EVAL_TRIALS``, 5); 0 runs
+    none. Only with ``simtrace_envs``."""
     eval_every: int = 50
     """Iterations between evaluations of the current actor [iterations]; 0 turns them off.
     Evaluations need an output folder (``train(out=...)``)."""
@@ -252,6 +263,11 @@ class TrainConfig:
         if self.observations not in OBSERVATIONS:
             raise ValueError(f"TrainConfig.observations must be one of {OBSERVATIONS}, got "
                              f"{self.observations!r}")
+        for name in self.opponents():
+            try:
+                parse_driver_spec(name)
+            except ValueError as err:
+                raise ValueError(f"TrainConfig.opponent: {err}") from None
         if not isinstance(self.imitation, ImitationConfig):
             raise ValueError(f"TrainConfig.imitation must be an ImitationConfig, got "
                              f"{self.imitation!r}")
@@ -293,6 +309,15 @@ class TrainConfig:
             raise ValueError(f"TrainConfig.simtrace_envs must be an int in [0, "
                              f"{min(10, self.num_envs)}] (at most 10 and num_envs), got "
                              f"{self.simtrace_envs!r}")
+        if (not isinstance(self.simtrace_episodes, int) or isinstance(self.simtrace_episodes, bool)
+                or self.simtrace_episodes < 1):
+            raise ValueError(f"TrainConfig.simtrace_episodes must be an int >= 1 (DeepRacer's "
+                             f"default: 20), got {self.simtrace_episodes!r}")
+        if (not isinstance(self.simtrace_eval_trials, int)
+                or isinstance(self.simtrace_eval_trials, bool)
+                or not 0 <= self.simtrace_eval_trials <= 100):
+            raise ValueError(f"TrainConfig.simtrace_eval_trials must be an int in [0, 100] "
+                             f"(DeepRacer's default: 5), got {self.simtrace_eval_trials!r}")
         if self.track == PROCEDURAL and (self.reward_function or self.simtrace_envs):
             raise ValueError("TrainConfig: a DeepRacer reward function or simtrace logs need "
                              "one track; pick a fixed track instead of 'procedural'")
@@ -496,6 +521,7 @@ class TrainConfig:
                 env_config, num_envs=size, learners=self.learners, opponent=opponent,
                 observations=self.observations, seed=seed, device=device,
                 reward_function=self.reward_function, simtrace=log,
-                simtrace_envs=max(self.simtrace_envs, 1), expert=self.imitation.expert(),
+                simtrace_envs=max(self.simtrace_envs, 1),
+                simtrace_episodes=self.simtrace_episodes, expert=self.imitation.expert(),
                 race_types=self.race.race_types))
         return envs[0] if groups == 1 else TrackGroups(envs)

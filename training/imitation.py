@@ -12,11 +12,22 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+from h2h_racing.policies.registry import parse_driver_spec
 from h2h_racing.policies.scripted import TEACHERS
 
 SCRIPTED_TEACHERS = TEACHERS
-"""Scripted drivers a ``teacher`` or ``driver`` can name (their actions reach the learner
-through the env's ``expert`` observation group)."""
+"""Scripted drivers a ``teacher`` or ``driver`` can name, with any of their settings
+(``racing_line:grip_factor=0.7``; their actions reach the learner through the env's ``expert``
+observation group)."""
+
+
+def _driver_name(spec: Any, key: str) -> str:
+    """The driver name of ``[imitation]``'s ``key`` (``racing_line:grip_factor=0.7`` ->
+    ``racing_line``), its spec checked (``parse_driver_spec``)."""
+    try:
+        return parse_driver_spec(spec).name
+    except ValueError as err:
+        raise ValueError(f"[imitation] {key}: {err}") from None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -26,8 +37,8 @@ class ImitationConfig:
     teacher: str | None = None
     """What to imitate with rsl-rl's ``Distillation`` instead of training with PPO: a
     state-observation policy (shipped name or ``policy.pt``) distilled into a camera actor,
-    or a scripted driver (``SCRIPTED_TEACHERS``, e.g. ``"racing_line"``) imitated by any
-    actor. The student drives (DAgger: it learns on the states its own driving reaches) and is
+    or a scripted driver (``SCRIPTED_TEACHERS``, e.g. ``"racing_line"``, with any settings:
+    ``"racing_line:grip_factor=0.7"``) imitated by any actor. The student drives (DAgger: it learns on the states its own driving reaches) and is
     regressed onto the teacher's actions there. The fast way to a camera policy on a CPU (no
     critic, one pass per rollout), and a scripted teacher brings what it knows of every track
     (``racing_line`` laps every shipped and generated track) to a state policy before PPO
@@ -36,7 +47,9 @@ class ImitationConfig:
     options: dict[str, float] = field(default_factory=dict)
     """Constructor arguments of the scripted driver that labels actions (a scripted
     ``teacher`` or the ``driver``), e.g. ``{"grip_factor": 0.6, "margin": 0.2}`` for a
-    ``RacingLine`` that corners at 60 % of the grip and keeps 0.2 m from the borders."""
+    ``RacingLine`` that corners at 60 % of the grip and keeps 0.2 m from the borders (the same
+    as ``teacher = "racing_line:grip_factor=0.6:margin=0.2"``; a setting goes in one of the
+    two, not both)."""
     pace: float = 1.0
     """Share of a policy ``teacher``'s commanded speed that its labels command
     (``ClippedTeacher``), in [0.5, 1]: 0.95 teaches the student to drive 5 % below the
@@ -45,7 +58,8 @@ class ImitationConfig:
     took ``grand_loop`` from 45-55 % of laps to 95-100 % on three seeds, for laps 4-6 % slower
     (``experiments/camera/README.md``)."""
     driver: str | None = None
-    """A scripted driver (``SCRIPTED_TEACHERS``) that PPO's actor is kept near with ``coef``."""
+    """A scripted driver (``SCRIPTED_TEACHERS``, with any settings) that PPO's actor is kept
+    near with ``coef``."""
     coef: float = 0.0
     """Weight of a behaviour-cloning term in PPO (``ImitationPPO``): after each PPO update the
     actor's mean actions in the rollout's states are regressed (MSE, one pass over the
@@ -55,6 +69,9 @@ class ImitationConfig:
     what it does well. 0 turns it off."""
 
     def __post_init__(self) -> None:
+        for key in ("teacher", "driver"):
+            if getattr(self, key) is not None:
+                _driver_name(getattr(self, key), key)
         if not (isinstance(self.coef, (int, float)) and not isinstance(self.coef, bool)
                 and self.coef >= 0):
             raise ValueError(f"[imitation] coef must be a number >= 0, got {self.coef!r}")
@@ -67,8 +84,9 @@ class ImitationConfig:
             raise ValueError(f"[imitation] pace scales a policy teacher's speed labels, but "
                              f"teacher is {self.teacher!r}; name a policy (teacher = "
                              f"\"ppo_generalist\"), or slow a scripted driver with its options")
-        if self.driver is not None and self.driver not in SCRIPTED_TEACHERS:
-            raise ValueError(f"[imitation] driver must be one of {SCRIPTED_TEACHERS}, got "
+        if self.driver is not None and _driver_name(self.driver, "driver") not in TEACHERS:
+            raise ValueError(f"[imitation] driver must be one of {SCRIPTED_TEACHERS} (with any "
+                             f"settings, e.g. racing_line:grip_factor=0.7), got "
                              f"{self.driver!r}")
         if self.coef and (self.driver is None or self.teacher is not None):
             raise ValueError(f"[imitation] coef keeps PPO's actor near a scripted driver: name "
@@ -84,7 +102,8 @@ class ImitationConfig:
     @property
     def scripted_teacher(self) -> bool:
         """Whether ``teacher`` names a scripted driver (imitated through the ``expert`` group)."""
-        return self.teacher in SCRIPTED_TEACHERS
+        return (self.teacher is not None
+                and _driver_name(self.teacher, "teacher") in SCRIPTED_TEACHERS)
 
     def expert(self) -> Any:
         """The scripted driver that labels actions (the env's ``expert`` group): a scripted
@@ -99,3 +118,5 @@ class ImitationConfig:
         except TypeError as err:
             raise ValueError(f"[imitation] options {self.options!r} do not fit the {name!r} "
                              f"driver: {err}") from None
+        except ValueError as err:
+            raise ValueError(f"[imitation] {err}") from None

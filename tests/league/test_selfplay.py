@@ -78,6 +78,26 @@ def test_config_errors(tmp_path):
         LeagueConfig(learners=(LearnerSpec(name="racing_line"),))
 
 
+def test_anchors_take_driver_settings(tmp_path):
+    # Kept as each anchor's player is named (its spec written back), the rating anchor too.
+    config = LeagueConfig(anchors=("racing_line:grip_factor=0.70", "blocker:lane=outer"),
+                          rating_anchor="racing_line:grip_factor=.7")
+    assert config.anchors == ("racing_line:grip_factor=0.7", "blocker:lane=outer")
+    assert config.rating_anchor == "racing_line:grip_factor=0.7"
+    good = tmp_path / "paced.toml"
+    good.write_text('anchors = ["racing_line:grip_factor=0.8", "pure_pursuit"]\n'
+                    'rating_anchor = "pure_pursuit"\n')
+    assert LeagueConfig.from_toml(good).anchors[0] == "racing_line:grip_factor=0.8"
+    for anchors, message in [
+            (("racing_line:grip_factor=1.5",), r"LeagueConfig.anchors: racing_line: grip_factor "
+                                               r"must be a number in \(0, 1\], got '1.5'"),
+            (("racing_line:grp=0.7",), "LeagueConfig.anchors: racing_line: unknown setting 'grp'"),
+            (("league_racer:grip_factor=0.7",), "league_racer: a trained policy takes no settings"),
+            (("nobody",), "LeagueConfig.anchors: unknown driver 'nobody'")]:
+        with pytest.raises(ValueError, match=message):
+            LeagueConfig(anchors=anchors)
+
+
 def test_pool_opponent_drives_each_copy_with_its_driver():
     core = race_core("oval", num_cars=2, num_envs=4)
     specs = ("racing_line", "pure_pursuit", "pure_pursuit", "racing_line")

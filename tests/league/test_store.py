@@ -169,6 +169,18 @@ def test_player_for(tmp_path):
         player_for("nobody")
 
 
+def test_player_for_a_driver_with_settings():
+    # Named and built by its spec written back: two spellings of one pace are one player.
+    paced = player_for("racing_line: grip_factor=0.70")
+    assert (paced.name, paced.kind, paced.checkpoint) == (
+        "racing_line:grip_factor=0.7", "scripted", "racing_line:grip_factor=0.7")
+    assert player_for("racing_line:grip_factor=0.7") == paced
+    with pytest.raises(ValueError, match=r"racing_line: grip_factor must be a number in \(0, 1\]"):
+        player_for("racing_line:grip_factor=1.5")
+    with pytest.raises(ValueError, match="league_racer: a trained policy takes no settings"):
+        player_for("league_racer:grip_factor=0.7")
+
+
 def test_kill_9_while_writing_loses_nothing_committed(tmp_path):
     """A writer killed mid-stream leaves whole matches only (each with both cars)."""
     path = tmp_path / "league.sqlite"

@@ -111,6 +111,25 @@ def test_tournament_runs_once_and_resumes(tmp_path):
         assert "racing_line" in report.table()
 
 
+def test_players_with_settings(tmp_path):
+    # A paced racing_line is its own player, named by its spec, and rated beside the default.
+    cfg = _config(players=("racing_line:grip_factor=0.50", "racing_line"))
+    with LeagueStore(tmp_path / "l.sqlite") as store:
+        report = run_tournament(cfg, store, n_boot=10)
+        assert report.ran == 2  # 1 pair x 1 seed x 2 seat orders
+        assert {r.player for r in report.standings} == {"racing_line:grip_factor=0.5",
+                                                         "racing_line"}
+        assert store.player("racing_line:grip_factor=0.5").checkpoint == \
+            "racing_line:grip_factor=0.5"
+        assert "racing_line:grip_factor=0.5" in report.table()
+        # Two spellings of one pace are one player: refused before any race.
+        same = _config(players=("racing_line:grip_factor=0.5", "racing_line:grip_factor=.50"),
+                       name="same")
+        with pytest.raises(ValueError, match="name the same player twice"):
+            run_tournament(same, store, n_boot=10)
+        assert store.count_matches(context="tournament:same") == 0
+
+
 def test_swiss_tournament(tmp_path):
     cfg = _config(players=("racing_line", "pure_pursuit", "blocker", "random"),
                   schedule="swiss", rounds=2)

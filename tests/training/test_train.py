@@ -303,6 +303,24 @@ class TestImitationPPO:
         with pytest.raises(ValueError, match="leave teacher unset"):
             ImitationConfig(driver="racing_line", coef=5.0, teacher="racing_line")
 
+    def test_driver_and_teacher_take_settings(self) -> None:
+        paced = ImitationConfig(driver="racing_line:grip_factor=0.7", coef=1.0)
+        expert = paced.expert()
+        assert (expert.grip_factor, expert.name) == (0.7, "racing_line:grip_factor=0.7")
+        teacher = ImitationConfig(teacher="blocker:lane=outer", options={"cruise_speed": 2.0})
+        assert teacher.scripted_teacher and teacher.expert().lane == "outer"
+        assert teacher.expert().cruise_speed == 2.0
+        with pytest.raises(ValueError, match=r"^\[imitation\] teacher: pure_pursuit: "
+                                             r"cruise_speed must be a number in \(0, 4\], got '9'$"):
+            ImitationConfig(teacher="pure_pursuit:cruise_speed=9")
+        with pytest.raises(ValueError, match=r"^\[imitation\] teacher: league_racer: a trained "
+                                             r"policy takes no settings"):
+            ImitationConfig(teacher="league_racer:grip_factor=0.7")
+        with pytest.raises(ValueError, match=r"\[imitation\] driver must be one of"):
+            ImitationConfig(driver="random", coef=1.0)
+        with pytest.raises(ValueError, match="grip_factor given both in the spec"):
+            ImitationConfig(teacher="racing_line:grip_factor=0.7", options={"grip_factor": 0.8})
+
 
 class TestMaxStd:
     """TrainConfig.max_std holds the policy's std at or below the bound after every update."""

@@ -78,3 +78,27 @@ def test_train_races_racing_line_by_default() -> None:
     shipped = _train_config(parser.parse_args(["train", "--out", "runs/x", "--config",
                                                "ppo_generalist/imitate"]))
     assert shipped.num_cars == 1 and shipped.reward.contact == 0.0
+
+
+def test_opponents_take_driver_settings(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    parser = build_parser()
+    config = _train_config(parser.parse_args(
+        ["train", "--out", "runs/x", "--opponents", "racing_line:grip_factor=0.7,pure_pursuit"]))
+    assert config.opponents() == ["racing_line:grip_factor=0.7", "pure_pursuit"]
+    for opponents, message in [
+            ("racing_line:grip_factor=1.5",
+             "TrainConfig.opponent: racing_line: grip_factor must be a number in (0, 1], got "
+             "'1.5'"),
+            ("pure_pursuit,racing_line:grp=1", "racing_line: unknown setting 'grp'"),
+            ("league_racer:grip_factor=0.7", "league_racer: a trained policy takes no settings")]:
+        with pytest.raises(ValueError, match=re.escape(message)):
+            _train_config(parser.parse_args(["train", "--out", "runs/x", "--opponents",
+                                             opponents]))
+    # On the command line: one line, and nothing trained or written.
+    from h2h_racing.cli import main
+
+    out = tmp_path / "run"
+    assert main(["train", "--out", str(out), "--opponents", "racing_line:grip_factor=2"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "grip_factor must be a number in (0, 1], got '2'" in err
+    assert not out.exists()
