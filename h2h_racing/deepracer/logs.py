@@ -62,6 +62,16 @@ complete"``, ``"Off track"``, ...); per evaluation trial ``completion_percentage
 ``metric_time``, ``start_time``, ``elapsed_time_in_milliseconds``, ``episode_status``,
 ``crash_count``, ``immobilized_count``, ``off_track_count``, ``reversed_count``,
 ``reset_count`` and ``trial``.
+
+Evaluation episodes in the training metrics: between training iterations DeepRacer's first
+rollout worker runs ``MIN_EVAL_TRIALS`` (5) evaluation episodes and appends them to its
+``TrainingMetrics.json`` with ``phase: "evaluation"``, the same fields as a training episode,
+and the ``episode`` and ``trial`` of the iteration's last training episode (simapp
+``TrainingMetrics.append_episode_metrics`` counts neither), so deepracer-utils puts them in
+that iteration. ``log_evaluation`` appends such rows (``evaluation_due`` says when: the first
+logged copy has just finished an iteration); ``h2h_racing.training.simtrace_eval`` runs the
+episodes. A writer with ``root=None`` writes no files and keeps its metrics entries in memory
+(``first_episodes``): that is how those episodes are measured.
 """
 
 from __future__ import annotations
@@ -114,8 +124,8 @@ _SENSOR_NAMES = {"camera": "FRONT_FACING_CAMERA", "lidar": "LIDAR"}
 class _Stream:
     """One car of one logged env copy: its open episode and its finished ones."""
 
-    csv_dir: Path
-    metrics_path: Path
+    csv_dir: Path | None
+    metrics_path: Path | None
     rows: list[str] = field(default_factory=list)
     metrics: list[dict[str, Any]] = field(default_factory=list)
     iteration: int = 0
@@ -132,7 +142,8 @@ class SimtraceWriter:
     and ``close()`` at the end (it writes the metrics JSON and any unfinished episode).
 
     Args:
-        root: Folder for the logs (created); one sub-folder per logged car.
+        root: Folder for the logs (created); one sub-folder per logged car. None writes no
+            files: the metrics entries stay in memory (``first_episodes``).
         config: The env's configuration (car geometry, action space, sensors, rules).
         track: The track the core races on.
         agents: Name of every car of a copy (folder names); defaults to ``car_<i>``.
@@ -148,7 +159,7 @@ class SimtraceWriter:
         ValueError: Bad ``envs``, ``cars``, ``phase`` or ``episodes_per_iteration``.
     """
 
-    def __init__(self, root: str | Path, config: EnvConfig, track: Track, *,
+    def __init__(self, root: str | Path | None, config: EnvConfig, track: Track, *,
                  agents: Sequence[str] | None = None, envs: Sequence[int] = (0,),
                  cars: Sequence[int] | None = None,
                  phase: Literal["training", "evaluation"] = "training",
@@ -162,7 +173,7 @@ class SimtraceWriter:
         if not envs or len(set(envs)) != len(envs) or min(envs) < 0:
             raise ValueError(f"envs must list distinct env copy indices >= 0, got {envs}")
         limit = 1 if phase == "evaluation" else MAX_WORKERS
-        if len(envs) > limit:
+        if root is not None and len(envs) > limit:
             raise ValueError(f"{phase} logs take at most {limit} env copies (deepracer-utils "
                              f"reads workers 0-9 and one stream per evaluation), got "
                              f"{len(envs)}; log fewer copies")
@@ -174,7 +185,7 @@ class SimtraceWriter:
         agents = list(agents) if agents is not None else [f"car_{i}" for i in range(n)]
         if len(agents) != n:
             raise ValueError(f"agents must name all {n} cars, got {agents}")
-        self.root = Path(root)
+        self.root = None if root is None else Path(root)
         self.config = config
         self.track = track
         self.envs = np.asarray(envs, dtype=np.int64)
@@ -187,12 +198,15 @@ class SimtraceWriter:
         self._track_len = repr(self._geometry.track_length)
         self._crash_infraction = config.race_rules.crash_is_infraction
         stamp = datetime.now(timezone.utc).strftime("%Y%m%d%H%M%S")
-        metadata = _metadata(config, model_metadata)
+        metadata = _metadata(config, model_metadata) if root is not None else {}
         w, c = len(envs), len(cars)
         self._streams: list[list[_Stream]] = []
         for wi in range(w):
             row = []
             for car in cars:
+                if self.root is None:
+                    row.append(_Stream(csv_dir=None, metrics_path=None))
+                    continue
                 folder = self.root / agents[car]
                 (folder / "model").mkdir(parents=True, exist_ok=True)
                 (folder / "metrics").mkdir(parents=True, exist_ok=True)
@@ -209,7 +223,8 @@ class SimtraceWriter:
                 csv_dir.mkdir(parents=True, exist_ok=True)
                 row.append(_Stream(csv_dir=csv_dir, metrics_path=metrics))
             self._streams.append(row)
-        self.paths = sorted({str(self.root / agents[car]) for car in cars})
+        self.paths = ([] if self.root is None else
+                      sorted({str(self.root / agents[car]) for car in cars}))
         """The per-car log folders (each one loads with ``deepracer.logs.DeepRacerLog``)."""
         # Per (logged copy, logged car) state of the open episode.
         self._active = np.zeros((w, c), dtype=bool)
@@ -224,6 +239,7 @@ class SimtraceWriter:
         self._clock = np.zeros(w)
         self._last_time = np.zeros(w)
         self._closed = False
+        self._due = False
 
     # ------------------------------------------------------------------ public API
     def start(self, core: RaceCore, envs: BoolArray | None = None) -> None:
@@ -318,6 +334,87 @@ class SimtraceWriter:
                 line = (core.lap_origin[sel] + core.laps[sel] * self.track.length)
                 self._open(again, line / self.track.length % 1.0, core.crashes[sel])
 
+    @property
+    def evaluation_due(self) -> bool:
+        """Whether the first logged copy has finished a training iteration (its
+        ``episodes_per_iteration``-th episode) since the last ``log_evaluation``: DeepRacer
+        would run its evaluation episodes now."""
+        return self._due
+
+    def log_evaluation(self, trials: Sequence[Sequence[dict[str, Any]]]) -> None:
+        """Append DeepRacer's evaluation episodes to the first logged copy's training metrics.
+
+        Call it after the ``log_step`` that finished the iteration (``evaluation_due``) and
+        before ``start`` opens the copy's next episode. Each trial becomes one row per logged
+        car with ``phase: "evaluation"``, the ``episode`` and ``trial`` of that car's last
+        training episode (as simapp writes them, so deepracer-utils counts the row in that
+        iteration), and ``start_time`` / ``metric_time`` on the copy's simulated clock: the
+        trials run one after the other from the end of the iteration, and the clock runs on
+        by their length before the next training episode, as Gazebo's does.
+
+        Args:
+            trials: Per evaluation episode, per logged car (in ``cars`` order), its metrics
+                entry as a ``root=None`` writer keeps them (``first_episodes``):
+                ``reward_score``, ``completion_percentage``, ``episode_status`` and
+                ``elapsed_time_in_milliseconds``.
+
+        Raises:
+            ValueError: Not a training writer, or a trial without one entry per logged car.
+        """
+        if self.phase != "training":
+            raise ValueError("evaluation episodes go into training metrics; this writer logs "
+                             "an evaluation")
+        if any(len(trial) != len(self.cars) for trial in trials):
+            raise ValueError(f"every trial needs one entry per logged car ({len(self.cars)})")
+        # A copy's episode ends for all its cars at once: the trial lasts as long as its
+        # longest entry.
+        elapsed = [max(int(entry["elapsed_time_in_milliseconds"]) for entry in trial)
+                   for trial in trials]
+        begin = (self._clock[0] + self._last_time[0]) * 1000.0
+        for ci, stream in enumerate(self._streams[0]):
+            last = next((m for m in reversed(stream.metrics) if m["phase"] == "training"),
+                        {"episode": 0, "trial": 0})
+            start = begin
+            for trial, length in zip(trials, elapsed):
+                entry = trial[ci]
+                stream.metrics.append({
+                    "reward_score": int(entry["reward_score"]),
+                    "metric_time": int(round(start + length)),
+                    "start_time": int(round(start)),
+                    "elapsed_time_in_milliseconds": length,
+                    "episode": int(last["episode"]),
+                    "trial": int(last["trial"]),
+                    "phase": "evaluation",
+                    "completion_percentage": int(entry["completion_percentage"]),
+                    "episode_status": str(entry["episode_status"]),
+                })
+                start += length
+            self._write_metrics(stream)
+        self._clock[0] += sum(elapsed) / 1000.0
+        self._due = False
+
+    def first_episodes(self) -> list[list[dict[str, Any]]] | None:
+        """The metrics entry of the first episode of every logged car of every logged copy
+        (``[copy][car]``, in ``envs`` and ``cars`` order), or None while one is still open."""
+        if any(not stream.metrics for row in self._streams for stream in row):
+            return None
+        return [[stream.metrics[0] for stream in row] for row in self._streams]
+
+    def clear(self) -> None:
+        """Forget every episode (open or finished) and restart the clock, to log afresh from
+        the next ``start``; for a ``root=None`` writer that measures episodes."""
+        for row in self._streams:
+            for stream in row:
+                stream.rows.clear()
+                stream.metrics.clear()
+                stream.trials = 0
+                stream.iteration = 0
+        self._active[:] = False
+        self._episode[:] = -1
+        self._clock[:] = 0.0
+        self._last_time[:] = 0.0
+        self._due = False
+
     def close(self) -> None:
         """Write the rows of unfinished episodes and every metrics JSON file."""
         if self._closed:
@@ -369,6 +466,8 @@ class SimtraceWriter:
         progress = np.where(progress > prev + 50.0, progress - 100.0, progress)
         progress = np.minimum(progress, 100.0)
         self._prev_progress = np.where(mask, progress, prev)
+        if self.root is None:
+            return  # no files: the progress is all the metrics entries need
         # closest_waypoint: of the waypoints bracketing the model point by arc length, the
         # one nearer in Euclidean distance (ties go to the one behind).
         last = len(self._wp_ndist) - 1
@@ -435,9 +534,13 @@ class SimtraceWriter:
                 self._write_metrics(stream)
                 stream.iteration += 1
                 stream.trials = 0
+                self._due = self._due or wi == 0
         self._active &= ~done
 
     def _flush_rows(self, stream: _Stream) -> None:
+        if stream.csv_dir is None:
+            stream.rows.clear()
+            return
         path = stream.csv_dir / f"{stream.iteration}-iteration.csv"
         new = stream.iteration not in stream.written
         with path.open("w" if new else "a") as f:
@@ -448,6 +551,8 @@ class SimtraceWriter:
         stream.rows.clear()
 
     def _write_metrics(self, stream: _Stream) -> None:
+        if stream.metrics_path is None:
+            return
         body = {"metrics": stream.metrics, "best_model_metric": "progress"}
         stream.metrics_path.write_text(json.dumps(body))
 
