@@ -6,7 +6,10 @@ They need the ``train`` extra only when they run; ``h2h_racing.cli`` adds them t
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import functools
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 from h2h_racing.cli_help import SEED_HELP
@@ -141,6 +144,18 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _time_trials(seed: int) -> Callable[[str, str], float]:
+    """``lap(driver, track)``: the driver's time-trial lap alone on the track
+    (``time_trial_lap``: one batched core of 4 attempts), each pair measured once."""
+    from h2h_racing.training.evaluate import time_trial_lap
+
+    @functools.cache
+    def lap(driver: str, track: str) -> float:
+        return time_trial_lap(driver, track, seed=seed)
+
+    return lap
+
+
 def _evaluate_head_to_head(args: argparse.Namespace) -> int:
     from h2h_racing.training.evaluate import (combine, head_to_head, head_to_head_header,
                                             head_to_head_row)
@@ -159,9 +174,12 @@ def _evaluate_head_to_head(args: argparse.Namespace) -> int:
     gap += f", rolling start at {args.rolling:g} m/s" if args.rolling else ""
     print(f"{args.policy}: {args.races} two-car races of {args.laps} laps per track and opponent "
           f"(race rules: 5 s penalties), {grid}{gap}")
-    print(head_to_head_header())
+    opponents = args.against.split(",")
+    width = max(16, *map(len, opponents))
+    print(head_to_head_header(width))
     results: dict[str, list] = {}
-    jobs = [(opponent, track) for opponent in args.against.split(",") for track in tracks]
+    jobs = [(opponent, track) for opponent in opponents for track in tracks]
+    lap = _time_trials(args.seed)
     bar = Progress("evaluate", mode=progress_mode(args))
     for k, (opponent, track) in enumerate(jobs):
         def show(share: float, finished: int, k: int = k, opponent: str = opponent,
@@ -174,21 +192,27 @@ def _evaluate_head_to_head(args: argparse.Namespace) -> int:
                                   races=args.races, laps=args.laps, seed=args.seed,
                                   start=args.start, gap=args.gap, rolling=args.rolling,
                                   progress=show)
+            result = dataclasses.replace(result, time_trial_laps=(
+                lap(args.policy, track), lap(opponent, track)))
         except ValueError as err:
             bar.close()
             print(f"error: {err}", file=sys.stderr)
             return 2
         results.setdefault(opponent, []).append(result)
         bar.clear()
-        print(head_to_head_row(result, opponent), flush=True)
+        print(head_to_head_row(result, opponent, width), flush=True)
     bar.close()
     for opponent, rows in results.items():
         total = combine(rows)
-        print(f"{head_to_head_row(total, opponent)} ({100 * total.wins[0] / total.races:.0f} % "
-              "won)")
+        won = 100 * total.wins[0] / total.races
+        print(f"{head_to_head_row(total, opponent, width)} ({won:.0f} % won)")
     print("won: the policy's wins (of all races, from the slot behind, from the front slot); "
-          "per race: the policy's / the opponent's; a defence: the other car was under 1 m "
-          "behind for 2 s, faster at some moment, and dropped back without passing")
+          "lap s: each car's time-trial lap alone (the policy's / the opponent's; the mean of "
+          "4 one-lap attempts from start points spread round the lap, an infraction ends one; "
+          "summed over tracks in the total); margin %: how much faster the policy's lap is "
+          "(negative: slower); per race: the policy's / the opponent's; a defence: the other "
+          "car was under 1 m behind for 2 s, faster at some moment, and dropped back without "
+          "passing")
     return 0
 
 
@@ -211,6 +235,8 @@ def _evaluate_field(args: argparse.Namespace) -> int:
           f"every rotation of the grid{gap}")
     print(field_header())
     results = []
+    lap = _time_trials(args.seed)
+    laps = {name: 0.0 for name in [args.policy, *names]}
     bar = Progress("evaluate", mode=progress_mode(args))
     for k, track in enumerate(tracks):
         def show(share: float, finished: int, k: int = k, track: str = track) -> None:
@@ -230,14 +256,32 @@ def _evaluate_field(args: argparse.Namespace) -> int:
         results.append(result)
         bar.clear()
         print("\n".join(field_rows(result)), flush=True)
+        track_laps = {name: lap(name, track) for name in laps}
+        print(_pace_line(track, args.policy, names, track_laps), flush=True)
+        laps = {name: laps[name] + track_laps[name] for name in laps}
     bar.close()
     total = combine_fields(results)
     print("\n".join(field_rows(total, slots=True)))
+    print(_pace_line("all", args.policy, names, laps))
     wins = ", ".join(f"{name} {won}" for name, won in zip(total.drivers, total.wins))
     print(f"races won: {wins}")
     print("slot: the policy's grid slot (1 is the front); mean place, won, per race and "
-          "finished are the policy's")
+          "finished are the policy's; lap s: each car's time-trial lap alone (the mean of 4 "
+          "one-lap attempts, summed over tracks in 'all'), with how much faster the policy's "
+          "is (negative: slower)")
     return 0
+
+
+def _pace_line(track: str, policy: str, opponents: list[str], laps: dict[str, float]) -> str:
+    """``lap s on TRACK: POLICY 6.14; racing_line 6.14 (+0.0 %); ...``: each car's time-trial
+    lap, and how much faster the policy's is than each opponent's (``evaluate --field``)."""
+    from h2h_racing.training.evaluate import lap_text, margin_text, pace_margin
+
+    others = [f"{name} {lap_text(laps[name])} "
+              f"({margin_text(pace_margin(laps[policy], laps[name]))} %)"
+              for name in dict.fromkeys(opponents)]
+    where = "all tracks" if track == "all" else track
+    return f"lap s on {where}: {policy} {lap_text(laps[policy])}; " + "; ".join(others)
 
 
 def add_training_commands(sub: argparse._SubParsersAction) -> None:

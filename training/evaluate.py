@@ -85,6 +85,47 @@ def evaluate(driver: Any, track: str | Track, episodes: int = 20, seed: int = 0,
         off_tracks=int(core.off_tracks[:, 0].sum()), collisions=int(core.collisions[:, 0].sum()))
 
 
+TIME_TRIAL_EPISODES = 4
+"""One-lap attempts behind ``time_trial_lap``'s mean (from start points spread round the lap)."""
+
+
+def time_trial_lap(driver: Any, track: str | Track, seed: int = 0,
+                   episodes: int = TIME_TRIAL_EPISODES) -> float:
+    """Return ``driver``'s time-trial lap alone on ``track`` [s]: the mean of the completed laps
+    of ``evaluate``'s ``episodes`` one-lap attempts (one batched core; training rules, an
+    infraction ends the attempt), inf when it completed none.
+
+    Args:
+        driver: A driver spec (``make_driver``; a fresh driver is built) or a driver object.
+        track: Catalogue name, track file or ``Track``.
+        seed: Seed of the core.
+        episodes: Lap attempts.
+    """
+    return evaluate(driver, track, episodes=episodes, seed=seed).mean_lap_time
+
+
+def pace_margin(lap: float, other: float) -> float:
+    """How much faster ``lap`` is than ``other`` [%] (negative: slower); NaN unless both are
+    finite.
+
+    >>> round(pace_margin(6.0, 8.0), 1), round(pace_margin(8.0, 6.0), 1)
+    (25.0, -33.3)
+    """
+    if not (np.isfinite(lap) and np.isfinite(other) and other > 0):
+        return float("nan")
+    return 100.0 * (other - lap) / other
+
+
+def lap_text(lap: float) -> str:
+    """A time-trial lap as the tables show it: ``6.14``, ``DNF`` (inf) or ``-`` (NaN)."""
+    return f"{lap:.2f}" if np.isfinite(lap) else ("DNF" if lap == np.inf else "-")
+
+
+def margin_text(margin: float) -> str:
+    """A pace margin as the tables show it: ``+25.0`` or ``-``."""
+    return f"{margin:+.1f}" if np.isfinite(margin) else "-"
+
+
 START_CHOICES = ("both", "behind", "front")
 """Grid slot of the evaluated driver (driver A) in ``head_to_head``: ``both`` alternates the
 two slots on the same start points, ``behind`` always starts it in the slot behind (the
@@ -128,6 +169,15 @@ class HeadToHead:
     """Distance between the grid slots [m of track]."""
     rolling: float = 0.0
     """Start speed of both cars [m/s]: 0 for a standing start, else a rolling start."""
+    time_trial_laps: tuple[float, float] = (float("nan"), float("nan"))
+    """Each driver's time-trial lap alone on the track [s] (``time_trial_lap``; summed over
+    tracks by ``combine``): inf when it completed none, NaN when not measured."""
+
+    @property
+    def pace_margin(self) -> float:
+        """How much faster A's time-trial lap is than B's [%] (negative: slower; NaN unless
+        both laps are known): the pace A races with, beside its results."""
+        return pace_margin(*self.time_trial_laps)
 
     def per_race(self, counts: tuple[int, int]) -> float:
         """A's share of ``counts`` (e.g. ``overtakes``) per race."""
@@ -272,29 +322,33 @@ def combine(results: list[HeadToHead], track: str = "all") -> HeadToHead:
         races_front=total("races_front"), wins_front=total("wins_front"),
         defences=total("defences"), start=starts.pop() if len(starts) == 1 else "both",
         gap=gaps.pop() if len(gaps) == 1 else float("nan"),
-        rolling=speeds.pop() if len(speeds) == 1 else float("nan"))
+        rolling=speeds.pop() if len(speeds) == 1 else float("nan"),
+        time_trial_laps=(float(sum(r.time_trial_laps[0] for r in results)),
+                         float(sum(r.time_trial_laps[1] for r in results))))
 
 
-def head_to_head_header() -> str:
-    """Header of ``head_to_head_row``'s table."""
-    return (f"{'track':<16} {'opponent':<16} {'won':>11} {'from behind':>11} "
-            f"{'from front':>11} {'passes/race':>12} {'crashes/race':>12} "
-            f"{'defences/race':>13} {'finished':>11}")
+def head_to_head_header(width: int = 16) -> str:
+    """Header of ``head_to_head_row``'s table (``width``: of the opponent column)."""
+    return (f"{'track':<16} {'opponent':<{width}} {'won':>11} {'from behind':>11} "
+            f"{'from front':>11} {'lap s':>15} {'margin %':>8} {'passes/race':>12} "
+            f"{'crashes/race':>12} {'defences/race':>13} {'finished':>11}")
 
 
-def head_to_head_row(result: HeadToHead, opponent: str) -> str:
+def head_to_head_row(result: HeadToHead, opponent: str, width: int = 16) -> str:
     """One row of the evaluation table of ``evaluate --against``: A's wins overall, from
-    behind and from the front, then passes, crashes caused and defences per race and
-    finishes as A's / B's."""
+    behind and from the front, the time-trial laps (A's / B's) and A's pace margin, then
+    passes, crashes caused and defences per race and finishes as A's / B's (``width``: of
+    the opponent column)."""
     def ratio(won: int, of: int) -> str:
         return f"{won} / {of}" if of else "-"
 
     def per_race(counts: tuple[int, int]) -> str:
         return f"{counts[0] / result.races:.2f} / {counts[1] / result.races:.2f}"
 
-    return (f"{result.track:<16} {opponent:<16} {ratio(result.wins[0], result.races):>11} "
+    return (f"{result.track:<16} {opponent:<{width}} {ratio(result.wins[0], result.races):>11} "
             f"{ratio(result.wins_behind, result.races_behind):>11} "
             f"{ratio(result.wins_front, result.races_front):>11} "
-            f"{per_race(result.overtakes):>12} {per_race(result.crashes):>12} "
+            f"{' / '.join(map(lap_text, result.time_trial_laps)):>15} "
+            f"{margin_text(result.pace_margin):>8} {per_race(result.overtakes):>12} {per_race(result.crashes):>12} "
             f"{per_race(result.defences):>13} "
             f"{ratio(*result.finished):>11}")

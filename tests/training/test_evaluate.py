@@ -150,6 +150,38 @@ class TestGridProtocols:
         assert total.overtakes == (2, 4) and total.crashes == (3, 2)
         assert total.defences == (1, 2) and total.finished == (5, 6)
         assert total.per_race(total.crashes) == 0.5
+        # Time-trial laps unmeasured: NaN, and no margin.
+        assert np.isnan(total.time_trial_laps).all() and np.isnan(total.pace_margin)
+
+
+class TestPaceMargin:
+    """Each driver's time-trial lap and the margin between two, by hand."""
+
+    def test_margin_by_hand(self) -> None:
+        from h2h_racing.training.evaluate import HeadToHead, combine, pace_margin
+
+        # 6 s against 8 s: (8 - 6) / 8 = 25 % faster; 8 s against 6 s: (6 - 8) / 6 = -33.3 %.
+        assert pace_margin(6.0, 8.0) == 25.0
+        assert round(pace_margin(8.0, 6.0), 4) == -33.3333
+        assert np.isnan(pace_margin(float("inf"), 8.0)) and np.isnan(pace_margin(6.0, np.nan))
+        common = dict(drivers=("a", "b"), races=2, wins=(1, 1), overtakes=(0, 0),
+                      crashes=(0, 0), finished=(2, 2))
+        one = HeadToHead(track="oval", time_trial_laps=(6.0, 8.0), **common)
+        two = HeadToHead(track="kidney", time_trial_laps=(9.0, 8.0), **common)
+        # Over both tracks: 15 s against 16 s, (16 - 15) / 16 = 6.25 %.
+        total = combine([one, two])
+        assert total.time_trial_laps == (15.0, 16.0) and total.pace_margin == 6.25
+
+    def test_time_trial_lap_is_the_mean_of_four_attempts(self) -> None:
+        from h2h_racing.training.evaluate import time_trial_lap
+
+        lap = time_trial_lap("racing_line", "oval")
+        assert lap == evaluate("racing_line", "oval", episodes=4).mean_lap_time
+        # The racing line laps the oval in about 6.1 s from a standing start (policies/README);
+        # its profile's flying lap, 5.15 s, bounds it from below.
+        assert 5.15 < lap < 6.6
+        # More grip, a faster lap.
+        assert time_trial_lap("racing_line:grip_factor=0.7", "oval") < lap
 
 
 class TestStartPoints:
@@ -197,7 +229,7 @@ class TestEvaluateCli:
         row = next(line for line in out.splitlines() if line.startswith("oval"))
         # Won 1 of 1, 1 of 1 from behind, none from the front, and it had to pass to win.
         assert row.split()[2:9] == ["1", "/", "1", "1", "/", "1", "-"]
-        assert float(row.split()[9]) >= 1.0
+        assert float(row.split()[13]) >= 1.0  # passes per race, after lap s and margin %
         assert "the policy starts behind, 2 m grid gap" in out
 
     def test_bad_gap_is_refused(self, capsys) -> None:
@@ -213,3 +245,27 @@ class TestEvaluateCli:
         assert main(["evaluate", "--policy", "racing_line", "--against", "pure_pursuit",
                      "--track", "oval", "--races", "3"]) == 2
         assert "--races must be an even number" in capsys.readouterr().err
+
+    def test_pace_margin_beside_the_results(self, capsys) -> None:
+        from h2h_racing.cli import main
+
+        assert main(["evaluate", "--policy", "racing_line", "--against",
+                     "pure_pursuit,racing_line:grip_factor=0.7", "--track", "oval", "--races",
+                     "2", "--laps", "1"]) == 0
+        lines = capsys.readouterr().out.splitlines()
+        header = next(line for line in lines if line.startswith("track"))
+        assert header.split()[5:10] == ["from", "front", "lap", "s", "margin"]
+        rows = {line.split()[1]: line.split() for line in lines if line.startswith("oval")}
+        slow = rows["pure_pursuit"]
+        # track, opponent, won, from behind, from front (3 tokens each), then lap s (A / B).
+        mine, theirs, margin = float(slow[11]), float(slow[13]), float(slow[14])
+        # Racing line ~6.1 s against pure pursuit's ~8.7 s a lap of the oval (policies/README):
+        # about 30 % faster, and the margin is the printed laps' (to the rounding of 0.01 s).
+        assert 5.15 < mine < 6.6 and 8.0 < theirs < 9.5
+        assert abs(margin - 100 * (theirs - mine) / theirs) < 0.2 and margin > 20
+        # The same driver at 0.7 of the grip is faster: a negative margin, and the name of the
+        # driver with its setting in the row.
+        paced = rows["racing_line:grip_factor=0.7"]
+        assert float(paced[13]) < float(paced[11]) and float(paced[14]) < 0
+        total = next(line for line in lines if line.split()[:2] == ["all", "pure_pursuit"])
+        assert total.split()[11:15] == slow[11:15]  # one track: the total repeats it

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -113,6 +115,16 @@ class TestFieldCli:
         assert [row[1] for row in totals] == ["1", "2", "3", "all"]
         assert all(row[2] == "1" for row in totals[:3]) and totals[3][2] == "3"
         assert "races won: racing_line " in out
+        # Each car's time-trial lap, and the policy's margin over each opponent: racing_line
+        # ~6.1 s against pure pursuit's ~8.7 s a lap of the oval (policies/README).
+        pace = re.fullmatch(r"lap s on oval: racing_line (\S+); pure_pursuit (\S+) \((\S+) %\)",
+                            next(line for line in out.splitlines()
+                                 if line.startswith("lap s on oval")))
+        assert pace is not None
+        mine, theirs, margin = map(float, pace.groups())
+        assert 5.15 < mine < 6.6 and 8.0 < theirs < 9.5
+        assert abs(margin - 100 * (theirs - mine) / theirs) < 0.2
+        assert f"lap s on all tracks: racing_line {pace.group(1)};" in out
 
     def test_against_and_field_are_exclusive(self, capsys) -> None:
         from h2h_racing.cli import main
