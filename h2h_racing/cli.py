@@ -13,7 +13,7 @@
                         [--against DRIVERS | --field DRIVERS] [--races 20] [--laps 3]
                         [--start both|behind|front] [--gap M] [--rolling M/S]
     h2h-racing export POLICY [--format onnx,torchscript] [--out DIR]
-    h2h-racing tracks list
+    h2h-racing tracks [list] [--track T1,FILE,FOLDER]
     h2h-racing tracks show NAME [--out NAME.png]
     h2h-racing tracks import FILE [--name NAME] [--scale S | --scale L,W] [--reverse] [--out F]
     h2h-racing tournament --players A,B,C [--tracks T1,T2] [--races 2] [--backend local|ray]
@@ -44,14 +44,45 @@ def _scale(text: str) -> float | tuple[float, float]:
                                      f"got {text!r}")
 
 
-def _cmd_tracks_list(args: argparse.Namespace) -> int:
-    from h2h_racing.track_io import catalogue, load_track
+TRACKS_NOTE = ("reference s: the minimum-time reference lap, an estimate: a point mass on the "
+               "racing line's path at the car's full grip, acceleration and braking (a real car "
+               "lags it); racing_line s: the lap of that driver's own speed profile on the same "
+               "path (60 % of the grip in corners), also an estimate (it drives 9-20 % slower "
+               "from a standing start); margin %: how much slower racing_line's profile is")
 
-    print(f"{'name':<16} {'lap m':>7} {'width m':>12}  description")
-    for name in sorted(catalogue()):
-        t = load_track(name)
-        width = f"{t.width.min():.2f}-{t.width.max():.2f}"
-        print(f"{name:<16} {t.length:>7.2f} {width:>12}  {t.description}")
+
+def _track_sources(text: str | None) -> list[str]:
+    """The tracks ``--track`` names: the catalogue (None), else each comma-separated item, a
+    folder standing for its .json, .npy and .csv files."""
+    from h2h_racing.track_io import list_tracks
+
+    if text is None:
+        return list_tracks()
+    found: list[str] = []
+    for item in (part.strip() for part in text.split(",") if part.strip()):
+        folder = Path(item)
+        if folder.is_dir():
+            files = sorted(str(p) for p in folder.iterdir()
+                           if p.suffix.lower() in (".json", ".npy", ".csv"))
+            if not files:
+                raise ValueError(f"--track {item!r}: the folder holds no .json, .npy or .csv "
+                                 f"track file")
+            found += files
+        else:
+            found.append(item)
+    return found
+
+
+def _cmd_tracks_list(args: argparse.Namespace) -> int:
+    from h2h_racing.policies.lap_times import TrackLaps, track_laps
+    from h2h_racing.track_io import load_track
+
+    tracks = [load_track(name) for name in _track_sources(args.track)]
+    width = max(16, *(len(t.name) for t in tracks))
+    print(f"{TrackLaps.header(width)}  description")
+    for track in tracks:
+        print(f"{track_laps(track).row(width)}  {track.description}".rstrip(), flush=True)
+    print(TRACKS_NOTE)
     return 0
 
 
@@ -226,9 +257,19 @@ def build_parser() -> argparse.ArgumentParser:
     camera.add_argument("--out", default="camera.png", help="PNG path")
     camera.set_defaults(func=_cmd_camera)
 
-    tracks = sub.add_parser("tracks", help="list, preview and import tracks")
-    tsub = tracks.add_subparsers(dest="tracks_command", required=True)
-    tlist = tsub.add_parser("list", help="list the track catalogue")
+    tracks_help = ("list the tracks with their length, width and lap-time estimates (the "
+                   "minimum-time reference lap and racing_line's profile lap; point masses on "
+                   "the racing line's path, which a real car lags)")
+    tracks = sub.add_parser("tracks", help="list (the default), preview and import tracks",
+                            description=tracks_help[:1].upper() + tracks_help[1:] + "; "
+                            "'tracks show' previews a track, 'tracks import' converts one.")
+    track_help = ("comma-separated catalogue names, track files (.json, .npy, .csv) or folders "
+                  "of them (default: every catalogue track)")
+    tracks.add_argument("--track", default=None, help=track_help)
+    tracks.set_defaults(func=_cmd_tracks_list)
+    tsub = tracks.add_subparsers(dest="tracks_command")
+    tlist = tsub.add_parser("list", help=tracks_help)
+    tlist.add_argument("--track", default=None, help=track_help)
     tlist.set_defaults(func=_cmd_tracks_list)
     show = tsub.add_parser("show", help="write a PNG preview of a track")
     show.add_argument("name", help="catalogue name or track file")

@@ -22,7 +22,11 @@ Run 'h2h-racing COMMAND --help' for a command's options."""
 DRIVERS_HELP = ("comma-separated drivers, one per car: scripted (racing_line, pure_pursuit, "
                 "blocker, random), shipped policies (league_racer, ppo_generalist, "
                 "obstacle_generalist, camera_generalist, camera_racer, camera_speedway, "
-                "racing_line_student) or policy.pt files")
+                "racing_line_student) or policy.pt files; a scripted driver takes settings "
+                "after its name, e.g. racing_line:grip_factor=0.7 for its pace ("
+                "policies/README.md lists them)")
+SPEC_HELP = ("a scripted driver takes settings after its name, e.g. racing_line:grip_factor=0.7 "
+             "or racing_line:grip_factor=0.7:margin=0.1")
 SEED_HELP = "random seed (start points, noise)"
 
 

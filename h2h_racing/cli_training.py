@@ -12,7 +12,7 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
-from h2h_racing.cli_help import SEED_HELP
+from h2h_racing.cli_help import SEED_HELP, SPEC_HELP
 from h2h_racing.config_rules import RACE_TYPES
 from h2h_racing.progress import Progress, add_progress_flag, progress_mode
 
@@ -320,14 +320,15 @@ def add_training_commands(sub: argparse._SubParsersAction) -> None:
                             "[-1, 1]); unbounded by default")
     train.add_argument("--teacher", default=None, metavar="POLICY",
                        help="imitate instead of PPO (rsl-rl Distillation, the student drives): "
-                            "a scripted driver (racing_line, pure_pursuit, blocker) for any "
-                            "--obs, or a state policy (shipped name or policy.pt) for a camera "
-                            "student (default: none, PPO)")
+                            "a scripted driver (racing_line, pure_pursuit, blocker, with any "
+                            "settings: racing_line:grip_factor=0.7) for any --obs, or a state "
+                            "policy (shipped name or policy.pt) for a camera student (default: "
+                            "none, PPO)")
     train.add_argument("--opponents", default=None,
                        help="'none' (alone: a time trial), a scripted driver name or a "
                             "policy.pt, or several separated by commas (they share the env "
-                            "copies) (default without --config: racing_line, with a contact "
-                            "cost of -5 in the reward)")
+                            "copies); " + SPEC_HELP + " (default without --config: "
+                            "racing_line, with a contact cost of -5 in the reward)")
     train.add_argument("--iterations", type=int, default=1000,
                        help="PPO (or imitation) iterations, each of --envs copies x 32 steps")
     train.add_argument("--minutes", type=float, default=None,
@@ -383,7 +384,8 @@ def add_training_commands(sub: argparse._SubParsersAction) -> None:
     evaluate = sub.add_parser("evaluate", help="a policy's lap completion and lap times alone, or "
                                                   "its head-to-head record (--against)")
     evaluate.add_argument("--policy", required=True,
-                          help="policy.pt, a shipped policy or a scripted driver name")
+                          help="policy.pt, a shipped policy or a scripted driver name; "
+                               + SPEC_HELP)
     evaluate.add_argument("--track", default="speedway",
                           help="catalogue name or track file; with --against also a comma list "
                                "or 'all'")
@@ -391,10 +393,14 @@ def add_training_commands(sub: argparse._SubParsersAction) -> None:
                           help="one-lap attempts, from start points spread round the lap")
     evaluate.add_argument("--seed", type=int, default=0, help=SEED_HELP)
     evaluate.add_argument("--baseline", default="racing_line",
-                          help="comma-separated drivers evaluated on the same start points")
+                          help="comma-separated drivers evaluated on the same start points "
+                               "(scripted ones with any settings)")
     evaluate.add_argument("--against", default=None, metavar="DRIVERS",
-                          help="comma-separated opponents: race the policy head to head against "
-                               "each (2-car races; --track may be a comma list or 'all')")
+                          help="comma-separated opponents (scripted ones with any settings: "
+                               "racing_line:grip_factor=0.7): race the policy head to head "
+                               "against each (2-car races; --track may be a comma list or "
+                               "'all'), each row with both cars' time-trial laps alone and "
+                               "the policy's pace margin")
     evaluate.add_argument("--races", type=int, default=20,
                           help="races per track and opponent with --against (even with --start "
                                "both: both seat orders of every start), per track with --field")
@@ -411,10 +417,11 @@ def add_training_commands(sub: argparse._SubParsersAction) -> None:
                                "rolling start, the cars already moving along the track, --gap "
                                "apart; at most the car's max speed; 0 is a standing start")
     evaluate.add_argument("--field", default=None, metavar="DRIVERS",
-                          help="comma-separated opponents raced with the policy all at once "
-                               "(3-car races and more), every start point in every rotation of "
-                               "the grid (--races a multiple of the cars); results by the "
-                               "policy's grid slot")
+                          help="comma-separated opponents (scripted ones with any settings) "
+                               "raced with the policy all at once (3-car races and more), every "
+                               "start point in every rotation of the grid (--races a multiple "
+                               "of the cars); results by the policy's grid slot, and each car's "
+                               "time-trial lap")
     evaluate.add_argument("--laps", type=int, default=3,
                           help="laps per race with --against or --field")
     add_progress_flag(evaluate)

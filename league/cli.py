@@ -278,7 +278,9 @@ def add_commands(sub: Any) -> None:
     """Add ``tournament`` and ``league`` to the ``h2h-racing`` sub-command parsers."""
     tour = sub.add_parser("tournament", help="round robin or Swiss tournament; prints ratings")
     tour.add_argument("--players", type=_names, required=True,
-                      help="comma-separated drivers, shipped policies or policy.pt files")
+                      help="comma-separated drivers (scripted ones with any settings, "
+                           "racing_line:grip_factor=0.7: a player of its own), shipped "
+                           "policies or policy.pt files")
     tour.add_argument("--tracks", type=_names, default="speedway",
                       help="comma-separated tracks")
     tour.add_argument("--races", type=int, default=2,

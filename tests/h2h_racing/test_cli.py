@@ -23,6 +23,39 @@ class TestTracksCommands:
         for name in list_tracks():
             assert name in out
 
+    def test_tracks_prints_the_reference_lap(self, capsys: pytest.CaptureFixture[str]) -> None:
+        from h2h_racing.policies.lap_times import track_laps
+
+        assert main(["tracks"]) == 0  # 'tracks' alone lists, as 'tracks list' does
+        out = capsys.readouterr().out
+        assert out.splitlines()[0].split()[:9] == ["track", "lap", "m", "width", "m",
+                                                   "reference", "s", "racing_line", "s"]
+        rows = {line.split()[0]: line.split() for line in out.splitlines()[1:]}
+        for name in list_tracks():
+            laps = track_laps(load_track(name))
+            reference, profile = float(rows[name][3]), float(rows[name][4])
+            assert (reference, profile) == (round(laps.reference, 2), round(laps.racing_line, 2))
+            # Full grip on the same path is faster than racing_line's own profile.
+            assert reference < profile
+        assert "an estimate: a point mass on the racing line's path" in out
+
+    def test_tracks_of_a_folder_and_a_file(self, tmp_path: Path,
+                                           capsys: pytest.CaptureFixture[str]) -> None:
+        from h2h_racing.track_io import save_track
+
+        folder = tmp_path / "mine"
+        folder.mkdir()
+        save_track(load_track("technical"), folder / "tech.json")
+        (folder / "notes.txt").write_text("not a track")
+        assert main(["tracks", "list", "--track", f"oval,{folder}"]) == 0
+        rows = [line.split() for line in capsys.readouterr().out.splitlines()[1:3]]
+        assert [row[0] for row in rows] == ["oval", "technical"]
+        assert rows[1][1:3] == ["20.00", "0.76-0.76"]
+        empty = tmp_path / "empty"
+        empty.mkdir()
+        assert main(["tracks", "--track", str(empty)]) == 2
+        assert "holds no .json, .npy or .csv track file" in capsys.readouterr().err
+
     def test_show_writes_a_png_of_the_track(self, tmp_path: Path) -> None:
         out = tmp_path / "oval.png"
         assert main(["tracks", "show", "oval", "--out", str(out), "--width", "300"]) == 0
@@ -81,6 +114,19 @@ class TestRaceCommand:
     def test_unknown_driver_is_reported(self, capsys: pytest.CaptureFixture[str]) -> None:
         assert main(["race", "--track", "oval", "--drivers", "racing_line,nobody"]) == 2
         assert "nobody" in capsys.readouterr().err
+
+    def test_drivers_take_settings(self, capsys: pytest.CaptureFixture[str]) -> None:
+        assert main(["race", "--track", "oval", "--laps", "1", "--drivers",
+                     "racing_line:grip_factor=0.7,pure_pursuit:cruise_speed=2"]) == 0
+        out = capsys.readouterr().out
+        # Each car is shown by its driver's spec: which pace raced.
+        assert "car_0 (racing_line:grip_factor=0.7)" in out
+        assert "car_1 (pure_pursuit:cruise_speed=2)" in out
+        assert main(["race", "--track", "oval", "--drivers",
+                     "racing_line:grip_factor=1.5,pure_pursuit"]) == 2
+        err = capsys.readouterr().err
+        assert err == ("h2h-racing: error: racing_line: grip_factor must be a number in (0, 1], "
+                       "got '1.5'\n")
 
     def test_video_is_written(self, tmp_path: Path) -> None:
         video = tmp_path / "race.mp4"

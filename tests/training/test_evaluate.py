@@ -269,3 +269,15 @@ class TestEvaluateCli:
         assert float(paced[13]) < float(paced[11]) and float(paced[14]) < 0
         total = next(line for line in lines if line.split()[:2] == ["all", "pure_pursuit"])
         assert total.split()[11:15] == slow[11:15]  # one track: the total repeats it
+
+    def test_bad_settings_are_refused_in_one_line(self, capsys) -> None:
+        from h2h_racing.cli import main
+
+        assert main(["evaluate", "--policy", "racing_line", "--against",
+                     "racing_line:grp=0.7", "--track", "oval", "--races", "2"]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("error: racing_line: unknown setting 'grp'; its settings are "
+                              "grip_factor, margin,") and err.count("\n") == 1
+        assert main(["evaluate", "--policy", "league_racer:grip_factor=0.7", "--against",
+                     "racing_line", "--track", "oval", "--races", "2"]) == 2
+        assert "league_racer: a trained policy takes no settings" in capsys.readouterr().err
