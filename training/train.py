@@ -53,7 +53,9 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
         out: Folder for rsl-rl's logs and checkpoints, the evaluation recordings
             (``eval/iter_<n>.rrd``, see ``evaluate_during_training``), the final
             ``policy.pt`` and, with ``config.simtrace_envs``, DeepRacer logs in
-            ``out/simtrace/<car>``; None keeps nothing on disk and skips the evaluations.
+            ``out/simtrace/<car>`` (with DeepRacer's evaluation episodes between iterations,
+            ``config.simtrace_eval_trials``); None keeps nothing on disk and skips the
+            evaluations.
         minutes: Stop after the first iteration that ends past this wall-clock budget.
         progress: ``"auto"``: a progress line on stderr (``train_progress.TrainDisplay``:
             iterations of the run, samples/s, mean reward, lap completion, ETA); ``"off"``:
@@ -69,6 +71,12 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
     env = config.make_env(simtrace=None if out is None else Path(out) / "simtrace")
     with quiet(verbose):
         runner = make_runner(config, env, None if out is None else str(Path(out)))
+    if getattr(env, "simtrace", None) is not None and config.simtrace_eval_trials:
+        # DeepRacer's evaluation episodes between the simtrace's iterations.
+        from h2h_racing.training.simtrace_eval import SimtraceEvaluations
+
+        evaluations = SimtraceEvaluations.for_run(config, env, runner)  # type: ignore[arg-type]
+        env.evaluations = evaluations  # type: ignore[union-attr]
     display = TrainDisplay(runner, iterations, minutes, mode=progress, verbose=verbose)
     start = time.perf_counter()
     done = 0

@@ -148,6 +148,8 @@ class RacingVecEnv(VecEnv):
             copies ``0 .. simtrace_envs - 1`` (one DRfC worker each); None writes none. Call
             ``close()`` at the end to write the metrics and unfinished episodes.
         simtrace_envs: How many copies to log (1-10; logging costs a few us per row).
+        simtrace_episodes: Episodes of each logged copy per simtrace iteration
+            (``SimtraceWriter``'s ``episodes_per_iteration``).
         expert: A scripted driver (name, e.g. ``"racing_line"``, or object) whose actions for
             the learner cars fill the ``expert`` observation group; None adds no group.
         race_types: Race types that take turns at each ``set_track`` (a procedural run's new
@@ -168,6 +170,7 @@ class RacingVecEnv(VecEnv):
                  device: str = "cpu", track: Track | None = None,
                  random_starts: bool = True, reward_function: str | None = None,
                  simtrace: str | None = None, simtrace_envs: int = 2,
+                 simtrace_episodes: int = 20,
                  expert: str | Any | None = None, race_types: tuple[str, ...] = ()) -> None:
         n = config.num_cars
         learners = n if learners is None else learners
@@ -243,8 +246,15 @@ class RacingVecEnv(VecEnv):
                 raise ValueError(f"simtrace_envs must be an int in [1, num_envs={num_envs}], "
                                  f"got {simtrace_envs!r}")
             self.simtrace = SimtraceWriter(simtrace, config, self.track,
-                                           envs=range(simtrace_envs), cars=range(learners))
+                                           envs=range(simtrace_envs), cars=range(learners),
+                                           episodes_per_iteration=simtrace_episodes)
             self.simtrace.start(self.core)
+        self.evaluations: Any = None
+        """DeepRacer's evaluation episodes between the simtrace's training iterations: an
+        object whose ``run(start, slots)`` runs them from a grid (``grid``) and returns their
+        metrics entries (``h2h_racing.training.simtrace_eval.SimtraceEvaluations``); None
+        runs none. With a simtrace, ``step`` runs them when the first logged copy finishes an
+        iteration, and appends them to its metrics (``SimtraceWriter.log_evaluation``)."""
         self._reset_drivers()
         if self._camera is not None:
             self._camera.reset(self.core)
@@ -308,6 +318,11 @@ class RacingVecEnv(VecEnv):
             for copy in np.flatnonzero(ended).tolist() if self._builders else ():
                 self._builders[copy].reset()
             if self.simtrace is not None:
+                if self.evaluations is not None and self.simtrace.evaluation_due:
+                    # DeepRacer evaluates from where the worker's next training episode
+                    # starts (its start does not advance in the evaluation phase).
+                    trials = self.evaluations.run(*self.grid(int(self.simtrace.envs[0])))
+                    self.simtrace.log_evaluation(trials)
                 self.simtrace.start(core, ended)
         self._obs = self._observe()
         steps = np.repeat(core.steps, learners)
@@ -316,6 +331,30 @@ class RacingVecEnv(VecEnv):
                   "log": log}
         return (self._obs, self._tensor(reward[:, :learners].reshape(-1), torch.float32),
                 self._tensor(dones.reshape(-1), torch.long), extras)
+
+    def grid(self, copy: int) -> tuple[float, npt.NDArray[np.int64]]:
+        """The start grid of env copy ``copy``'s current episode: the arc position of its slot
+        0 [m] and the grid slot of each car, (N,) (``restart`` starts copies there)."""
+        start = self.core.start_distance[copy]
+        # Slot k starts k * grid_spacing behind slot 0 (spawn.grid_slots).
+        slots = np.argsort(np.argsort(-start, kind="stable"), kind="stable")
+        return float(start.max()), slots.astype(np.int64)
+
+    def restart(self, start: npt.ArrayLike, slots: npt.ArrayLike | None = None) -> None:
+        """Start a new episode in every copy, slot 0 at ``start`` [m] ((E,) or one for all),
+        the cars on ``slots`` ((N,) or (E, N); None draws them), then observe. A start with a
+        box on it is drawn again, as at every reset. Does not touch the simtrace."""
+        core = self.core
+        e = core.num_envs
+        every = np.ones(e, dtype=bool)
+        core.reset_envs(every, slots=slots,
+                        start=np.broadcast_to(np.asarray(start, dtype=np.float64), (e,)))
+        self._clear_starts(every)
+        if self._camera is not None:
+            self._camera.reset(core)
+        for builder in self._builders:
+            builder.reset()
+        self._obs = self._observe()
 
     def set_opponent(self, opponent: str | Any) -> None:
         """Drive the non-learner cars with ``opponent`` from now on (a driver name or object;
