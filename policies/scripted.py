@@ -18,6 +18,10 @@ through ``p`` and ``q`` has curvature ``2 sin(alpha) / l_d``, hence the steering
 ``delta = atan(2 L sin(alpha) / l_d)`` with ``L`` the wheelbase. The car model is close to
 neutral steer (``l_f C_f = l_r C_r``), so the kinematic angle holds up to the grip limit.
 
+Each driver class declares the settings a driver spec may give it (``SETTINGS``, e.g.
+``racing_line:grip_factor=0.7``; see :mod:`h2h_racing.policies.registry`, which builds
+drivers by spec with ``make_driver``).
+
 Run ``python -m h2h_racing.policies`` for the lap-time table of every driver on
 every catalogue track (:mod:`h2h_racing.policies.lap_times`).
 """
