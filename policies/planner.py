@@ -1,0 +1,322 @@
+"""``planner``: a scripted driver that races: it passes from behind and defends.
+
+A local planner in the spirit of Frenet-frame sampling (Werling et al., ICRA 2010) and TUM's
+graph-based planner (Stahl et al., ITSC 2019), batched over env copies:
+
+* **Lanes** (once per track): the racing line at the driver's grip, the racing line shifted
+  0.15 and 0.3 m to each side, and five lanes at fixed shares of the half-width, each with its
+  curvature and its closed-loop quasi-steady-state speed profile at the driver's grip
+  (:func:`~h2h_racing.policies.racing_line.speed_profile`).
+* **Candidates** (every step, every copy): a blend from the car's offset and heading onto each
+  lane over a short and a long transition (hold the line, pass left, pass right, come back),
+  each with its speed profile over a horizon of a few metres; every other car and bot is
+  predicted along the track at its speed, and a candidate that leaves the track or comes
+  within a car length and width plus margins of a predicted car is discarded. The one that
+  reaches the horizon soonest wins; with none free the car follows the car ahead
+  (:mod:`h2h_racing.policies.planner_kernel`). A pass is thus taken where the car behind
+  has the room and the pace: alongside on the approach, where its grip lets it brake later
+  and carry more speed on the inside, and never through a car that will be there.
+* **Defence**: with a car close behind (``cover_gap``) and a corner ahead, it takes the inside
+  lane of that corner once, until the apex, then its line again.
+* **Tracking**: pure pursuit on the chosen path with a yaw-rate damper (a car driven near the
+  grip limit oversteers when its yaw rate runs ahead of the path's; the damper counter-steers
+  by ``yaw_damping (r - v kappa)``), and a speed command that makes the car's speed controller
+  deliver the profile's acceleration rather than lag it.
+
+``grip_factor`` sets the pace: the share of ``mu g`` used in corners (``racing_line`` uses
+0.6). Boxes (``object_avoidance``) are kept clear of as by ``racing_line``
+(:func:`~h2h_racing.policies.obstacles.avoid_obstacles`).
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from h2h_racing.core import RaceCore
+from h2h_racing.policies import planner_kernel as kernel
+from h2h_racing.policies.obstacles import avoid_obstacles
+from h2h_racing.policies.racing_line import (GRAVITY, compute_race_line, line_curvature,
+                                             speed_profile)
+from h2h_racing.policies.scripted import lookahead, pursuit_steer, to_action
+from h2h_racing.track import Track
+
+FloatArray = npt.NDArray[np.float64]
+
+SHIFTS = (-0.45, -0.3, -0.15, 0.15, 0.3, 0.45)
+"""Sideways shifts of the racing line that make lanes [m] (clipped to the track, smoothed)."""
+LANE_GRIP = 0.9
+"""Share of the driver's grip used on lanes other than the racing line."""
+APEX_CURVATURE = 0.5
+"""Least racing-line curvature of a corner's apex [1/m] (radius 2 m)."""
+
+_CACHE: weakref.WeakKeyDictionary[Track, dict[tuple[float, ...], Lanes]] = (
+    weakref.WeakKeyDictionary())
+
+
+class Lanes:
+    """The planner's lanes on one track and its corners (arrays read-only).
+
+    Attributes:
+        offset: Lateral offset of each lane, (NL, K) [m]; lane 0 is the racing line.
+        speed: Profile speed of each lane at the driver's grip, (NL, K) [m/s].
+        curvature: Curvature of each lane, (NL, K) [1/m].
+        centre: Centre line's curvature [1/m], left and right half-widths [m], (3, K).
+        inv_ds: Grid density, K / L [1/m].
+        length: Lap length L [m].
+        apex_s: Arc position of each corner's apex, (C,) [m].
+        inside_lane: Lane that covers the inside of each corner, (C,).
+        lap_time: The racing line's profile lap time at this grip [s].
+    """
+
+    def __init__(self, track: Track, car: Any, v_max: float, grip: float, accel: float,
+                 brake: float, margin: float) -> None:
+        line = compute_race_line(track, car, v_max, margin=margin, grip_factor=grip,
+                                 accel_factor=accel, brake_factor=brake)
+        s = line.s
+        left, right = track.half_widths_at(s)
+        lo, hi = -(right - margin), left - margin
+        offsets = [np.asarray(line.d)]
+        offsets += [_smooth(np.clip(line.d + shift, lo, hi), lo, hi) for shift in SHIFTS]
+        # Lanes off the racing line are driven at LANE_GRIP of its grip: the car reaches
+        # them through a transition, and a car at the limit on the outside has no room left.
+        a_lat = LANE_GRIP * grip * car.friction * GRAVITY
+        speeds, curvatures = [np.asarray(line.speed)], [np.asarray(line.curvature)]
+        for d in offsets[1:]:
+            kappa, seg = line_curvature(track.point_at(s, d), smooth=2)
+            speeds.append(speed_profile(kappa, seg, v_max, a_lat, accel * car.max_accel,
+                                        brake * car.max_brake))
+            curvatures.append(kappa)
+        self.offset = np.ascontiguousarray(offsets)
+        self.speed = np.ascontiguousarray(speeds)
+        self.curvature = np.ascontiguousarray(curvatures)
+        self.centre = np.ascontiguousarray([track.curvature_at(s), left, right])
+        self.length = float(track.length)
+        self.inv_ds = len(s) / self.length
+        self.lap_time = float(line.lap_time)
+        self.apex_s, sign = _apexes(s, np.asarray(line.curvature))
+        # The lane most to the inside 1 m before each apex covers that corner's inside.
+        before = np.searchsorted(s, np.remainder(self.apex_s - 1.0, self.length)) % len(s)
+        self.inside_lane = np.argmax(self.offset[:, before] * sign[None, :], axis=0)
+        for arr in (self.offset, self.speed, self.curvature, self.centre, self.apex_s,
+                    self.inside_lane):
+            arr.flags.writeable = False
+
+
+def _smooth(d: FloatArray, lo: FloatArray, hi: FloatArray, width: int = 5,
+            passes: int = 3) -> FloatArray:
+    """Circular moving average of ``d`` (``passes`` times), kept within ``[lo, hi]``."""
+    for _ in range(passes):
+        d = sum(np.roll(d, j) for j in range(-(width // 2), width // 2 + 1)) / width
+        d = np.clip(d, lo, hi)
+    return d
+
+
+def _apexes(s: FloatArray, kappa: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Apexes of a closed line: local peaks of ``|kappa|`` above ``APEX_CURVATURE``, at most
+    one per metre; returns their arc positions and the sign of their turn (+1 left)."""
+    k = len(s)
+    window = max(1, round(1.0 / (s[1] - s[0])))
+    mag = np.abs(kappa)
+    peak = mag >= APEX_CURVATURE
+    for j in range(1, window + 1):
+        peak &= (mag >= np.roll(mag, j)) & (mag > np.roll(mag, -j))
+    index = np.flatnonzero(peak)
+    if k and not len(index):
+        return np.zeros(0), np.zeros(0)
+    return s[index].astype(np.float64), np.sign(kappa[index])
+
+
+class Planner:
+    """A racing driver: plans passes, defends once per corner, tracks at its grip.
+
+    Args:
+        grip_factor: Share of ``mu g`` used in corners: the driver's pace.
+        brake_factor: Share of the car's braking used in the speed profiles.
+        accel_factor: Share of the car's acceleration used in the speed profiles.
+        margin: Distance kept by the lanes from each border [m].
+        cover_gap: Distance behind within which an attacker makes it defend [m].
+        lateral_margin: Gap kept beside a predicted car, beyond the two half-widths [m].
+        long_margin: Gap kept behind a predicted car, beyond the two half-lengths [m].
+        yaw_damping: Counter-steer per rad/s of yaw rate above the path's [s].
+    """
+
+    name = "planner"
+
+    def __init__(self, grip_factor: float = 0.75, brake_factor: float = 0.8,
+                 accel_factor: float = 1.0, margin: float = 0.12, cover_gap: float = 1.5,
+                 lateral_margin: float = 0.1, long_margin: float = 0.15,
+                 yaw_damping: float = 0.05, follow_cost: float = 0.2,
+                 switch_cost: float = 0.05) -> None:
+        for key, value, low, high in (("grip_factor", grip_factor, 0.3, 1.0),
+                                      ("brake_factor", brake_factor, 0.2, 1.0),
+                                      ("accel_factor", accel_factor, 0.2, 1.0),
+                                      ("margin", margin, 0.05, 0.3),
+                                      ("cover_gap", cover_gap, 0.0, 5.0),
+                                      ("lateral_margin", lateral_margin, 0.0, 0.5),
+                                      ("long_margin", long_margin, 0.0, 1.0),
+                                      ("yaw_damping", yaw_damping, 0.0, 0.5)):
+            if not (isinstance(value, (int, float)) and low <= value <= high):
+                raise ValueError(f"planner: {key} must be a number in [{low}, {high}], "
+                                 f"got {value!r}")
+        self.grip_factor = float(grip_factor)
+        self.brake_factor = float(brake_factor)
+        self.accel_factor = float(accel_factor)
+        self.margin = float(margin)
+        self.cover_gap = float(cover_gap)
+        self.lateral_margin = float(lateral_margin)
+        self.long_margin = float(long_margin)
+        self.yaw_damping = float(yaw_damping)
+        self.follow_cost = float(follow_cost)
+        self.switch_cost = float(switch_cost)
+        self.lanes: Lanes | None = None
+        self._track: Track | None = None
+        self._plan = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0), np.zeros(0),
+                      np.zeros(0))
+        self._cover = np.zeros(0, dtype=np.int64)
+        self._covered = np.zeros(0, dtype=np.int64)
+
+    def reset(self, core: RaceCore) -> None:
+        """Build (or fetch) the lanes of ``core.track`` and clear every copy's plan."""
+        if self.lanes is None or self._track is not core.track:
+            key = (self.grip_factor, self.brake_factor, self.accel_factor, self.margin,
+                   core.config.max_speed, *core.config.car.__dict__.values())
+            per_track = _CACHE.setdefault(core.track, {})
+            if key not in per_track:
+                per_track[key] = Lanes(core.track, core.config.car, core.config.max_speed,
+                                       self.grip_factor, self.accel_factor, self.brake_factor,
+                                       self.margin)
+            self.lanes = per_track[key]
+            self._track = core.track
+        e = core.num_envs
+        self._plan = (np.full(e, -1, dtype=np.int64), np.zeros(e), np.zeros(e), np.zeros(e),
+                      np.ones(e))
+        self._cover = np.full(e, -1, dtype=np.int64)
+        self._covered = np.full(e, -1, dtype=np.int64)
+
+    def _params(self, core: RaceCore) -> FloatArray:
+        car = core.config.car
+        params = np.zeros(kernel.NUM_PARAMS)
+        params[kernel.P_A_LAT] = self.grip_factor * car.friction * GRAVITY
+        params[kernel.P_A_ACC] = self.accel_factor * car.max_accel
+        params[kernel.P_A_BRK] = self.brake_factor * car.max_brake
+        params[kernel.P_EDGE] = self.margin - 0.04
+        params[kernel.P_HALF_LEN] = 0.5 * car.length
+        params[kernel.P_HALF_WID] = 0.5 * car.width
+        params[kernel.P_LONG_MARGIN] = self.long_margin
+        params[kernel.P_LAT_MARGIN] = self.lateral_margin
+        params[kernel.P_CLOSING_MARGIN] = 0.2
+        params[kernel.P_SWITCH_COST] = self.switch_cost
+        params[kernel.P_DEV_COST] = 0.02
+        params[kernel.P_GAIN] = car.speed_gain
+        params[kernel.P_DT] = core.dt
+        params[kernel.P_FOLLOW_GAP] = 0.25
+        params[kernel.P_FOLLOW_TIME] = 0.15
+        params[kernel.P_FOLLOW_GAIN] = 1.5
+        params[kernel.P_V_MAX] = core.config.max_speed
+        params[kernel.P_FOLLOW_COST] = self.follow_cost
+        return params
+
+    def act(self, core: RaceCore, car: int) -> npt.NDArray[np.float32]:
+        """Return (E, 2) actions for car ``car``."""
+        if self.lanes is None or self._track is not core.track or \
+                len(self._plan[0]) != core.num_envs:
+            self.reset(core)
+        lanes = self.lanes
+        assert lanes is not None
+        track = core.track
+        s = core.s[:, car].copy()
+        d = core.d[:, car].copy()
+        v = core.speed[:, car].copy()
+        psi = track.heading_at(s)
+        kc = track.curvature_at(s)
+        err = np.remainder(core.yaw[:, car] - psi + math.pi, 2.0 * math.pi) - math.pi
+        slope = np.clip(np.tan(np.clip(err, -1.2, 1.2)) * (1.0 - kc * d), -1.0, 1.0)
+        objects = self._objects(core, car)
+        transitions = np.stack([0.8 + 0.5 * v, 1.2 + 1.0 * v], axis=1)
+        horizon = np.clip(np.maximum(transitions[:, 1] + 1.0, 1.6 * v), 3.0, 8.0)
+        look = lookahead(v, 0.35, 0.15, 1.5)
+        bonus = self._defence(core, car, lanes)
+        e = core.num_envs
+        choice = np.empty(e, dtype=np.int64)
+        d_look = np.empty(e)
+        v_cmd = np.empty(e)
+        self.report = np.empty((e, lanes.offset.shape[0], transitions.shape[1], 3))
+        kernel.plan(s, d, slope, v, lanes.offset, lanes.speed, lanes.curvature, lanes.centre,
+                    lanes.inv_ds, lanes.length, transitions, horizon, 30, *objects, bonus,
+                    *self._plan, self._params(core), look, choice, d_look, v_cmd,
+                    self.report)
+        self.choice = choice
+        d_look, v_cmd = avoid_obstacles(core, car, s + look, d_look, v_cmd)
+        target = track.point_at(s + look, d_look)
+        steer = pursuit_steer(core, car, target)
+        if self.yaw_damping:
+            # The pursuit arc's curvature (2 sin(alpha) / l_d) times speed is the yaw rate
+            # the path asks for; counter-steer any excess.
+            wanted = v * np.tan(steer) / core.config.car.wheelbase
+            steer = steer - self.yaw_damping * (core.yaw_rate[:, car] - wanted)
+        return to_action(core, steer, v_cmd)
+
+    def _objects(self, core: RaceCore, car: int) -> tuple[Any, ...]:
+        """Other cars and bots as the kernel's object slots (E, N + B) (see ``plan``)."""
+        length = core.track.length
+        car_len, car_wid = 0.5 * core.config.car.length, 0.5 * core.config.car.width
+        gap = core.s - core.s[:, car : car + 1]
+        gap -= length * np.floor(gap / length + 0.5)
+        valid = ~core.done
+        valid[:, car] = False
+        speed = np.where(core.racing, core.speed, 0.0)
+        psi = core.track.heading_at(core.s)
+        dd = -core.velocity[..., 0] * np.sin(psi) + core.velocity[..., 1] * np.cos(psi)
+        lo = hi = core.d
+        half_len = np.full(gap.shape, car_len)
+        half_wid = np.full(gap.shape, car_wid)
+        if core.num_bots:
+            bot_gap = core.bot_s - core.s[:, car : car + 1]
+            bot_gap -= length * np.floor(bot_gap / length + 0.5)
+            left, right = core.track.half_widths_at(core.bot_s)
+            lane_d = core.bot_lane * 0.5 * np.where(core.bot_lane >= 0, left, right)
+            gap = np.concatenate([gap, bot_gap], axis=1)
+            lo = np.concatenate([lo, np.minimum(core.bot_d, lane_d)], axis=1)
+            hi = np.concatenate([hi, np.maximum(core.bot_d, lane_d)], axis=1)
+            speed = np.concatenate([speed, core.bot_speed], axis=1)
+            dd = np.concatenate([dd, np.zeros(bot_gap.shape)], axis=1)
+            half_len = np.concatenate([half_len, np.full(bot_gap.shape, car_len)], axis=1)
+            half_wid = np.concatenate([half_wid, np.full(bot_gap.shape, car_wid)], axis=1)
+            valid = np.concatenate([valid, np.ones(bot_gap.shape, dtype=bool)], axis=1)
+        return (np.ascontiguousarray(gap), np.ascontiguousarray(lo), np.ascontiguousarray(hi),
+                np.ascontiguousarray(speed), np.ascontiguousarray(dd), half_len, half_wid,
+                np.ascontiguousarray(valid))
+
+    def _defence(self, core: RaceCore, car: int, lanes: Lanes) -> FloatArray:
+        """Lane bonus (E, NL) [s]: the inside lane of the next corner while an attacker is
+        within ``cover_gap`` behind, once per corner, until its apex."""
+        e = core.num_envs
+        bonus = np.zeros((e, lanes.offset.shape[0]))
+        if core.num_cars < 2 or not len(lanes.apex_s) or self.cover_gap <= 0:
+            return bonus
+        length = lanes.length
+        s = core.s[:, car]
+        to_apex = np.remainder(lanes.apex_s[None, :] - s[:, None], length)
+        upcoming = np.argmin(to_apex, axis=1)
+        rows = np.arange(e)
+        behind = core.distance[:, car : car + 1] - core.distance
+        others = ~core.done & (np.arange(core.num_cars) != car)[None, :]
+        attacked = (others & (behind > core.config.car.length + 0.05)
+                    & (behind < self.cover_gap)).any(axis=1)
+        near = to_apex[rows, upcoming] < 5.0
+        start = (self._cover < 0) & attacked & near & (upcoming != self._covered)
+        self._cover = np.where(start, upcoming, self._cover)
+        active = self._cover >= 0
+        left = to_apex[rows, np.maximum(self._cover, 0)]
+        done = active & ((left < 0.3) | (left > length - 2.0))
+        self._covered = np.where(done, self._cover, self._covered)
+        self._cover = np.where(done, -1, self._cover)
+        active &= ~done
+        lane = lanes.inside_lane[np.maximum(self._cover, 0)]
+        bonus[rows[active], lane[active]] = 0.5
+        return bonus

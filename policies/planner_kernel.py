@@ -1,0 +1,382 @@
+"""The planner's compiled step: candidate manoeuvres, their speed profiles, the collision
+check against predicted cars, the choice, and the commands, for every env copy at once.
+
+A candidate is a lateral path in the track's Frenet frame: from the car's own offset ``d0``
+and slope ``d0' = dd/ds`` it blends onto a precomputed *lane* ``d_l(s)`` (the racing line,
+the racing line shifted sideways, or a fixed share of the half-width) over a transition of
+``T`` metres, with the quintic Hermite blend of the error ``e = d - d_l``::
+
+    u = (s - s0) / T,   e(u) = e0 H0(u) + e0' T H1(u)   (0 for u >= 1)
+    H0 = 1 - 10u^3 + 15u^4 - 6u^5,   H1 = u - 6u^3 + 8u^4 - 3u^5
+
+which matches position and slope at the car and joins the lane with zero error, slope and
+curvature. The path's curvature is the lane's plus ``e''(s) = (e0 H0'' + e0' T H1'') / T^2``
+(``H0'' = -60u + 180u^2 - 120u^3``, ``H1'' = -36u + 96u^2 - 60u^3``). Its speed profile over
+the horizon is the racing line's quasi-steady-state method: the cornering limit
+``sqrt(a_lat / |kappa|)`` capped by the lane's own (closed-loop) profile, which already brakes
+for corners beyond the horizon, then a backward (braking) and a forward (acceleration, from
+the car's speed) pass. Arc position advances at ``ds/dt = v / (1 - kappa_c d)``, so an
+inside line gains track.
+
+Every other car (and bot) is predicted along the track at its speed: its arc gap grows by
+``(v_j - 0) t`` while its lateral span is the interval between its offset now and its
+offset extrapolated with its lateral speed for ``LATERAL_PREVIEW`` seconds. A candidate
+whose body comes within a car length plus a margin along the track and a car width plus a
+margin across of a predicted car, at the same time, is discarded; so is one that leaves the
+track. Of the rest, the one that reaches the end of the horizon soonest wins (with a small
+cost for leaving the racing line and for switching lanes, so that ties do not dither). When
+none is free the car follows: the racing line, its speed capped to hold a gap to the car
+ahead.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+LATERAL_PREVIEW = 0.4
+"""Time over which another car's lateral speed is extrapolated [s]."""
+REANCHOR = 0.3
+"""Distance from its tracked path beyond which the car starts a new one from where it is [m]."""
+SWITCH_CURVATURE = 0.3
+"""Largest centre-line curvature over a transition to another lane [1/m] (radius 3.3 m)."""
+MAX_SLOPE = 0.2
+"""Steepest lateral slope dd/ds of a transition between lanes (11 degrees)."""
+OVER_SPEED = 0.1
+"""Speed above a candidate's braking limit at the car that is tolerated [m/s]."""
+OVER_WEIGHT = 0.5
+"""Metres of track excess that one m/s above the braking limit counts as [s]."""
+
+# Indices into the kernel's packed parameters (``params``).
+P_A_LAT, P_A_ACC, P_A_BRK, P_EDGE, P_HALF_LEN, P_HALF_WID, P_LONG_MARGIN, P_LAT_MARGIN, \
+    P_CLOSING_MARGIN, P_SWITCH_COST, P_DEV_COST, P_GAIN, P_DT, P_FOLLOW_GAP, P_FOLLOW_TIME, \
+    P_FOLLOW_GAIN, P_V_MAX, P_FOLLOW_COST = range(18)
+NUM_PARAMS = 18
+
+
+@njit(cache=True, inline="always")
+def _table(table, row, s, inv_ds, length):  # pragma: no cover
+    """Periodic linear interpolation of ``table[row]`` (K samples over the lap) at ``s``."""
+    s = s - length * math.floor(s / length)
+    u = s * inv_ds
+    k = int(u)
+    count = table.shape[1]
+    f = u - k
+    k = k % count
+    return table[row, k] + f * (table[row, (k + 1) % count] - table[row, k])
+
+
+@njit(cache=True, inline="always")
+def _blend(u):  # pragma: no cover
+    """(H0, H1, H0'', H1'') of the quintic Hermite blend at ``u`` (zero past u = 1)."""
+    if u >= 1.0:
+        return 0.0, 0.0, 0.0, 0.0
+    u2 = u * u
+    u3 = u2 * u
+    return (1.0 - 10.0 * u3 + 15.0 * u2 * u2 - 6.0 * u3 * u2,
+            u - 6.0 * u3 + 8.0 * u2 * u2 - 3.0 * u3 * u2,
+            -60.0 * u + 180.0 * u2 - 120.0 * u3,
+            -36.0 * u + 96.0 * u2 - 60.0 * u3)
+
+
+@njit(cache=True)
+def plan(s0, d0, slope0, v0, lane_d, lane_v, lane_k, centre, inv_ds, length, transitions, horizon, samples,
+         obj_gap, obj_lo, obj_hi, obj_v, obj_dd, obj_half_len, obj_half_wid, obj_valid,
+         lane_bonus, plan_lane, plan_start, plan_error, plan_slope, plan_length, params, look, choice,
+         d_look, v_cmd, report):  # pragma: no cover
+    """Choose a manoeuvre per env copy and return its look-ahead offset and speed command.
+
+    Args:
+        s0, d0, slope0, v0: The car's arc position [m], offset [m], lateral slope dd/ds and
+            speed [m/s], each (E,).
+        lane_d, lane_v, lane_k: Lane tables, each (NL, K): offset [m], profile speed [m/s]
+            and curvature [1/m] of each lane on the uniform grid of ``inv_ds`` (lane 0 is
+            the racing line).
+        centre: Centre-line tables, (3, K): curvature [1/m], left and right half-width [m].
+        inv_ds, length: Grid density [1/m] and lap length [m].
+        transitions: (E, NT) transition lengths [m].
+        horizon: (E,) planning horizon [m of centre line].
+        samples: Samples along the horizon.
+        obj_*: Other cars and bots, (E, J): arc gap ahead of the car (wrapped) [m], lateral
+            span now (lo, hi) [m], speed [m/s], lateral speed [m/s], half length and half
+            width [m], and whether the slot holds an object.
+        lane_bonus: (E, NL) cost subtracted from each lane's candidates [s] (defence).
+        plan_lane, plan_start, plan_error, plan_slope, plan_length: (E,) the path being
+            tracked, updated in place: its lane (-1: none yet), and the arc position [m],
+            offset error from the lane [m], slope error and length [m] of its transition
+            onto the lane. It is kept while
+            the choice stays (re-anchored at the car when the car is more than
+            ``REANCHOR`` off it), so that the steering tracks a fixed path rather than one
+            that restarts at the car every step.
+        params: Packed parameters (``P_*``).
+        look: (E,) look-ahead distance of the steering target [m].
+        choice: Out (E,): chosen lane, or -1 when following (the tracked path is kept and
+            the speed capped behind the car ahead).
+        d_look: Out (E,): the tracked path's offset at ``s0 + look`` [m].
+        v_cmd: Out (E,): speed command [m/s].
+        report: Out (E, NL, NT, 3): each candidate's time to the horizon [s] (behind the
+            car it would hit, for one that is not free), the object it would hit (-1: none)
+            and how far it leaves the track [m] (for tests and diagnosis; lanes not looked at
+            alone hold nan).
+    """
+    num_env = s0.shape[0]
+    num_lanes = lane_d.shape[0]
+    num_trans = transitions.shape[1]
+    work = np.empty((4, samples + 1))
+    report[:] = np.nan
+    for e in range(num_env):
+        step = horizon[e] / samples
+        # The path being tracked: its offset and slope here, or the car's own when there is
+        # none yet or the car is more than REANCHOR off it.
+        ref = d0[e]
+        ref_slope = np.nan  # anchored at the car: no slope error (pure pursuit steers it)
+        stay = plan_lane[e]
+        left = 0.0
+        if stay >= 0:
+            done = s0[e] - plan_start[e]
+            done -= length * math.floor(done / length + 0.5)
+            if done >= plan_length[e]:
+                plan_error[e] = 0.0  # the transition is over: the path is the lane
+                plan_slope[e] = 0.0
+            left = plan_length[e] - max(done, 0.0)
+            ref = _path(lane_d, stay, plan_start[e], plan_error[e], plan_slope[e],
+                        plan_length[e], s0[e], inv_ds, length)
+            ref_slope = (_path(lane_d, stay, plan_start[e], plan_error[e], plan_slope[e],
+                               plan_length[e], s0[e] + 0.05, inv_ds, length) - ref) / 0.05
+            if abs(ref - d0[e]) > REANCHOR:
+                ref = d0[e]
+                ref_slope = np.nan
+                stay = -1
+        # Alone (nothing near within the horizon, no defence) the racing line is the plan:
+        # other lanes only look faster over a horizon that ends before their next corner.
+        busy = False
+        for o in range(obj_gap.shape[1]):
+            if obj_valid[e, o] and -1.0 < obj_gap[e, o] < horizon[e] + 1.0:
+                busy = True
+        for lane in range(num_lanes):
+            if lane_bonus[e, lane] != 0.0:
+                busy = True
+        base_excess = _excess(ref, s0[e], centre, inv_ds, length, params[P_EDGE])
+        best = (1e18, -1, 1.0, 0.0, True)  # cost, lane, transition, first speed, following
+        stay_best = best
+        nearest = (1e18, 0, 1.0, v0[e])  # excess, lane, transition, first speed
+        for lane in range(num_lanes if busy else 1):
+            for j in range(num_trans + 1):
+                if j == num_trans:  # the tracked path itself, as it goes on
+                    if lane != stay or left <= 0.0:
+                        continue
+                    trans = max(left, 0.3)
+                else:
+                    trans = transitions[e, j]
+                cost, v1, hit, excess, trans = _candidate(
+                    lane, trans, ref, ref_slope, s0[e], v0[e], step, samples, e, lane_d,
+                    lane_v, lane_k, centre, inv_ds, length, horizon[e], obj_gap, obj_lo,
+                    obj_hi, obj_v, obj_dd, obj_half_len, obj_half_wid, obj_valid, params,
+                    work)
+                if lane != stay and stay >= 0 and _bend(centre, s0[e], trans, inv_ds,
+                                                        length) > SWITCH_CURVATURE:
+                    continue  # no change of lane in a bend: set passes up before it
+                if j < num_trans:
+                    report[e, lane, j, 0] = cost
+                    report[e, lane, j, 1] = hit
+                    report[e, lane, j, 2] = excess
+                if excess < nearest[0] - 1e-9:
+                    nearest = (excess, lane, trans, v1)
+                if excess > base_excess + 0.01:
+                    continue
+                cost -= lane_bonus[e, lane]
+                if cost < best[0]:
+                    best = (cost, lane, trans, v1, hit >= 0)
+                if lane == stay and cost < stay_best[0]:
+                    stay_best = (cost, lane, trans, v1, hit >= 0)
+        # Keep the tracked path unless another is better by the switch cost.
+        if stay >= 0 and stay_best[1] >= 0 and best[0] + params[P_SWITCH_COST] >= stay_best[0]:
+            best = stay_best
+        _, lane, trans, v1, following = best
+        if lane < 0:  # nothing stays on the track: the candidate nearest it
+            _, lane, trans, v1 = nearest
+            following = True
+        choice[e] = -1 if following else lane
+        if following:
+            v1 = min(v1, _follow_speed(e, d0, v0, obj_gap, obj_lo, obj_hi, obj_v, obj_half_len,
+                                       obj_half_wid, obj_valid, params))
+        if lane != stay or stay < 0:
+            if lane != plan_lane[e] or stay < 0:
+                lane_here = _table(lane_d, lane, s0[e], inv_ds, length)
+                plan_error[e] = ref - lane_here
+                plan_slope[e] = 0.0
+                if not math.isnan(ref_slope):
+                    plan_slope[e] = ref_slope - (_table(lane_d, lane, s0[e] + 0.05, inv_ds,
+                                                        length) - lane_here) / 0.05
+                plan_start[e] = s0[e]
+                plan_length[e] = trans
+                plan_lane[e] = lane
+        d_look[e] = _path(lane_d, plan_lane[e], plan_start[e], plan_error[e], plan_slope[e],
+                          plan_length[e], s0[e] + look[e], inv_ds, length)
+        v_cmd[e] = _command(v0[e], v1, step, params)
+
+
+@njit(cache=True)
+def _candidate(lane, trans, ref, ref_slope, s_start, v_start, step, samples, e, lane_d, lane_v,
+               lane_k, centre, inv_ds, length, horizon, obj_gap, obj_lo, obj_hi, obj_v, obj_dd,
+               obj_half_len, obj_half_wid, obj_valid, params, work):  # pragma: no cover
+    """Evaluate one candidate: the blend from (``ref``, ``ref_slope``) onto ``lane`` over
+    ``trans`` metres. Returns its cost [s] (time to the horizon, plus the follow cost when it
+    must slow behind a car, plus the cost of ending off the racing line), its speed at the
+    first sample [m/s], the object it would hit (-1: none), how far it leaves the track [m]
+    and its transition length [m]. ``work`` is scratch space, (4, samples + 1)."""
+    v_lim, vel, dpath = work[0], work[1], work[2]
+    lane_start = _table(lane_d, lane, s_start, inv_ds, length)
+    e0 = ref - lane_start
+    # A lateral move of e0 over T metres has a largest slope of 1.875 e0 / T: keep it
+    # under MAX_SLOPE, so that the car's heading stays near the track's.
+    trans = max(trans, 1.875 * abs(e0) / MAX_SLOPE)
+    e1 = 0.0
+    if not math.isnan(ref_slope):
+        e1 = ref_slope - (_table(lane_d, lane, s_start + 0.05, inv_ds, length)
+                          - lane_start) / 0.05
+    excess = 0.0
+    for i in range(samples + 1):
+        s = s_start + i * step
+        h0, h1, h0pp, h1pp = _blend(i * step / trans)
+        d = _table(lane_d, lane, s, inv_ds, length) + e0 * h0 + e1 * trans * h1
+        excess = max(excess, _excess(d, s, centre, inv_ds, length, params[P_EDGE]))
+        dpath[i] = d
+        # Heading turned per metre of centre line: the lane's (its curvature times its
+        # stretch 1 - kappa_c d_lane) plus the blend's e''; the path's curvature is that over
+        # its own stretch 1 - kappa_c d.
+        kc = _table(centre, 0, s, inv_ds, length)
+        lane_here = _table(lane_d, lane, s, inv_ds, length)
+        turn = (_table(lane_k, lane, s, inv_ds, length) * max(1.0 - kc * lane_here, 0.2)
+                + (e0 * h0pp + e1 * trans * h1pp) / (trans * trans))
+        kappa = turn / max(1.0 - kc * d, 0.2)
+        v_lim[i] = min(_table(lane_v, lane, s, inv_ds, length),
+                       math.sqrt(params[P_A_LAT] / max(abs(kappa), 1e-6)))
+    over = _profile(v_lim, vel, step, v_start, params[P_A_ACC], params[P_A_BRK], samples)
+    # A path the car is already too fast for counts as leaving the track: it would slide.
+    excess = max(excess, OVER_WEIGHT * max(over - OVER_SPEED, 0.0))
+    t, hit = _run(dpath, vel, step, s_start, e, centre, inv_ds, length, obj_gap, obj_lo,
+                  obj_hi, obj_v, obj_dd, obj_half_len, obj_half_wid, obj_valid, params, samples)
+    if hit >= 0:
+        # The same path behind the car it would hit, at that car's speed at most.
+        for i in range(samples + 1):
+            v_lim[i] = min(v_lim[i], obj_v[e, hit])
+        _profile(v_lim, vel, step, v_start, params[P_A_ACC], params[P_A_BRK], samples)
+        t, _ = _run(dpath, vel, step, s_start, e, centre, inv_ds, length, obj_gap, obj_lo,
+                    obj_hi, obj_v, obj_dd, obj_half_len, obj_half_wid, obj_valid, params, -1)
+        t += params[P_FOLLOW_COST]
+    line_end = _table(lane_d, 0, s_start + horizon, inv_ds, length)
+    t += params[P_DEV_COST] * abs(dpath[samples] - line_end)
+    return t, vel[1], hit, excess, trans
+
+
+@njit(cache=True, inline="always")
+def _path(lane_d, lane, start, error, slope, trans, s, inv_ds, length):  # pragma: no cover
+    """Offset [m] at ``s`` of the path that leaves ``lane`` by ``error`` with the slope
+    error ``slope`` at ``start`` and blends onto it over ``trans`` metres."""
+    ahead = s - start
+    ahead -= length * math.floor(ahead / length + 0.5)
+    h0, h1, _, _ = _blend(max(ahead, 0.0) / trans)
+    return _table(lane_d, lane, s, inv_ds, length) + error * h0 + slope * trans * h1
+
+
+@njit(cache=True)
+def _run(dpath, vel, step, s_start, e, centre, inv_ds, length, obj_gap, obj_lo, obj_hi, obj_v,
+         obj_dd, obj_half_len, obj_half_wid, obj_valid, params, samples):  # pragma: no cover
+    """Drive a candidate (offsets ``dpath``, speeds ``vel`` at its samples): return the time
+    to its end [s] and the first object it comes too near (-1: none). With ``samples`` < 0
+    only the time is computed."""
+    count = dpath.shape[0] - 1
+    t = 0.0
+    for i in range(count + 1):
+        if i > 0:
+            kc = _table(centre, 0, s_start + (i - 0.5) * step, inv_ds, length)
+            stretch = max(1.0 - kc * 0.5 * (dpath[i] + dpath[i - 1]), 0.2)
+            t += step * stretch / max(0.5 * (vel[i] + vel[i - 1]), 0.05)
+        if samples < 0:
+            continue
+        for o in range(obj_gap.shape[1]):
+            if not obj_valid[e, o]:
+                continue
+            gap = obj_gap[e, o] + obj_v[e, o] * t - i * step
+            closing = max(vel[i] - obj_v[e, o], 0.0)
+            front = (params[P_HALF_LEN] + obj_half_len[e, o] + params[P_LONG_MARGIN]
+                     + params[P_CLOSING_MARGIN] * closing)
+            back = params[P_HALF_LEN] + obj_half_len[e, o]
+            if gap >= front or gap <= -back:
+                continue
+            moved = obj_dd[e, o] * min(t, LATERAL_PREVIEW)
+            lo = min(obj_lo[e, o], obj_lo[e, o] + moved)
+            hi = max(obj_hi[e, o], obj_hi[e, o] + moved)
+            apart = max(lo - dpath[i], dpath[i] - hi, 0.0)
+            if apart < params[P_HALF_WID] + obj_half_wid[e, o] + params[P_LAT_MARGIN]:
+                return t, o
+    return t, -1
+
+
+@njit(cache=True)
+def _bend(centre, s_start, distance, inv_ds, length):  # pragma: no cover
+    """Largest centre-line curvature over ``[s_start, s_start + distance]`` [1/m]."""
+    largest = 0.0
+    count = int(distance / 0.1) + 1
+    for i in range(count + 1):
+        largest = max(largest, abs(_table(centre, 0, s_start + distance * i / count, inv_ds,
+                                          length)))
+    return largest
+
+
+@njit(cache=True, inline="always")
+def _excess(d, s, centre, inv_ds, length, edge):  # pragma: no cover
+    """How far offset ``d`` lies beyond the border less ``edge`` at ``s`` [m] (0 inside)."""
+    left = _table(centre, 1, s, inv_ds, length) - edge
+    right = _table(centre, 2, s, inv_ds, length) - edge
+    return max(d - left, -right - d, 0.0)
+
+
+@njit(cache=True, inline="always")
+def _profile(v_lim, vel, step, v_start, a_acc, a_brk, samples):  # pragma: no cover
+    """Quasi-steady-state speeds over the horizon: braking pass from its end, then an
+    acceleration pass from the car's speed ``v_start`` (written into ``vel``). Returns how
+    far ``v_start`` lies above what the braking pass allows at the car [m/s]: a path the car
+    is too fast for."""
+    vel[samples] = v_lim[samples]
+    for i in range(samples - 1, -1, -1):
+        vel[i] = min(v_lim[i], math.sqrt(vel[i + 1] * vel[i + 1] + 2.0 * a_brk * step))
+    over = max(v_start - vel[0], 0.0)
+    vel[0] = v_start
+    for i in range(samples):
+        vel[i + 1] = min(vel[i + 1], math.sqrt(vel[i] * vel[i] + 2.0 * a_acc * step))
+    return over
+
+
+@njit(cache=True, inline="always")
+def _command(v, v_next, step, params):  # pragma: no cover
+    """Speed command that makes the speed controller ``a = gain (v_cmd - v)`` deliver the
+    acceleration ``(v_next^2 - v^2) / (2 step)`` of the profile's first step."""
+    accel = (v_next * v_next - v * v) / (2.0 * step)
+    return min(max(v + accel / params[P_GAIN], 0.0), params[P_V_MAX])
+
+
+@njit(cache=True)
+def _follow_speed(e, d0, v0, obj_gap, obj_lo, obj_hi, obj_v, obj_half_len, obj_half_wid,
+                  obj_valid, params):  # pragma: no cover
+    """Speed that holds a gap of ``follow_gap + follow_time v`` to the nearest object ahead
+    that overlaps the car laterally (a large number when there is none) [m/s]."""
+    lead_v = 1e9
+    lead_gap = 1e9
+    for o in range(obj_gap.shape[1]):
+        if not obj_valid[e, o] or obj_gap[e, o] <= 0.0:
+            continue
+        apart = max(obj_lo[e, o] - d0[e], d0[e] - obj_hi[e, o], 0.0)
+        if apart > params[P_HALF_WID] + obj_half_wid[e, o] + params[P_LAT_MARGIN]:
+            continue
+        gap = obj_gap[e, o] - params[P_HALF_LEN] - obj_half_len[e, o]
+        if gap < lead_gap:
+            lead_gap = gap
+            lead_v = obj_v[e, o]
+    if lead_gap > 1e8:
+        return 1e9
+    wanted = params[P_FOLLOW_GAP] + params[P_FOLLOW_TIME] * v0[e]
+    return max(lead_v + params[P_FOLLOW_GAIN] * (lead_gap - wanted), 0.0)
