@@ -318,9 +318,12 @@ class RacingVecEnv(VecEnv):
             for copy in np.flatnonzero(ended).tolist() if self._builders else ():
                 self._builders[copy].reset()
             if self.simtrace is not None:
+                # The episodes the reset cut short end first, so that an evaluation follows
+                # every car's last episode of the iteration. DeepRacer evaluates from where
+                # the worker's next training episode starts (its start does not advance in
+                # the evaluation phase).
+                self.simtrace.cut(ended)
                 if self.evaluations is not None and self.simtrace.evaluation_due:
-                    # DeepRacer evaluates from where the worker's next training episode
-                    # starts (its start does not advance in the evaluation phase).
                     trials = self.evaluations.run(*self.grid(int(self.simtrace.envs[0])))
                     self.simtrace.log_evaluation(trials)
                 self.simtrace.start(core, ended)

@@ -242,19 +242,25 @@ class SimtraceWriter:
         self._due = False
 
     # ------------------------------------------------------------------ public API
+    def cut(self, envs: BoolArray | None = None) -> None:
+        """End, cut short (``in_progress``), the episodes still open in the copies just reset
+        (another car's episode ended the copy): every logged copy, or those where ``envs``
+        (shape (E,)) is True. ``start`` does it first; call it alone to have those episodes'
+        metrics before ``start`` (before a ``log_evaluation``)."""
+        picked = self._picked(envs)
+        cut = np.broadcast_to(picked[:, None], self._active.shape) & self._active
+        if cut.any():
+            self._finish(cut, np.full(cut.shape, "in_progress"))
+
     def start(self, core: RaceCore, envs: BoolArray | None = None) -> None:
         """Open an episode (and write its ``prepare`` row) for the logged cars of the copies
         just reset: every logged copy, or those where ``envs`` (shape (E,)) is True."""
-        picked = np.ones(len(self.envs), dtype=bool) if envs is None else \
-            np.asarray(envs, dtype=bool)[self.envs]
+        picked = self._picked(envs)
         if not picked.any():
             return
         mask = np.broadcast_to(picked[:, None], self._active.shape)
-        cut = mask & self._active
-        if cut.any():
-            # Episodes of cars that were still racing when their copy was reset (another
-            # car's episode ended it) end here, cut short.
-            self._finish(cut, np.full(cut.shape, "in_progress"))
+        # Episodes of cars that were still racing when their copy was reset end here.
+        self.cut(envs)
         # The simulated clock runs on across episodes: the reset copy's time restarts at 0.
         self._clock[picked] += self._last_time[picked]
         self._last_time[picked] = 0.0
@@ -345,7 +351,8 @@ class SimtraceWriter:
         """Append DeepRacer's evaluation episodes to the first logged copy's training metrics.
 
         Call it after the ``log_step`` that finished the iteration (``evaluation_due``) and
-        before ``start`` opens the copy's next episode. Each trial becomes one row per logged
+        the ``cut`` of the copy's other cars' episodes, and before ``start`` opens the copy's
+        next episode. Each trial becomes one row per logged
         car with ``phase: "evaluation"``, the ``episode`` and ``trial`` of that car's last
         training episode (as simapp writes them, so deepracer-utils counts the row in that
         iteration), and ``start_time`` / ``metric_time`` on the copy's simulated clock: the
@@ -434,6 +441,12 @@ class SimtraceWriter:
         self.close()
 
     # ------------------------------------------------------------------ internals
+    def _picked(self, envs: BoolArray | None) -> BoolArray:
+        """Which logged copies ``envs`` (shape (E,), None: all) names, (W,)."""
+        if envs is None:
+            return np.ones(len(self.envs), dtype=bool)
+        return np.asarray(envs, dtype=bool)[self.envs]
+
     def _open(self, mask: BoolArray, start_ndist: FloatArray,
               crashes: npt.NDArray[Any]) -> None:
         self._active |= mask

@@ -246,3 +246,22 @@ def test_train_cli_with_deepracer_defaults(tmp_path: Path) -> None:
     fig = tm.plotProgress()
     fig.savefig(tmp_path / "progress.png")
     plt.close(fig)
+
+
+def test_self_play_every_car_evaluates_after_its_own_last_episode(tmp_path: Path) -> None:
+    """Two learners per copy: the reset that ends car 0's episode cuts car 1's short; both
+    cars' iterations end there, and both folders get the block after that episode."""
+    config = dataclasses.replace(QUICK, num_cars=2, simtrace_envs=1, simtrace_episodes=1)
+    train(config, iterations=3, out=tmp_path)
+    starts = []
+    for car in ("car_0", "car_1"):
+        rows = metrics(tmp_path / "simtrace" / car)
+        found = blocks(rows)
+        training = [r for r in rows if r["phase"] == "training"]
+        assert len(found) == len(training) >= 2
+        for before, block in found:
+            assert rows[before]["phase"] == "training" and len(block) == MIN_EVAL_TRIALS
+            assert all(r["episode"] == rows[before]["episode"] for r in block)
+        starts.append([block[0]["start_time"] for _, block in found])
+    # The same evaluation episodes, at the same moments, in both cars' files.
+    assert starts[0] == starts[1]
