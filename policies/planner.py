@@ -42,13 +42,22 @@ from h2h_racing.policies import planner_kernel as kernel
 from h2h_racing.policies.obstacles import avoid_obstacles
 from h2h_racing.policies.racing_line import (GRAVITY, compute_race_line, line_curvature,
                                              speed_profile)
-from h2h_racing.policies.scripted import lookahead, pursuit_steer, to_action
+from h2h_racing.policies.steering import lookahead, pursuit_steer, to_action
 from h2h_racing.track import Track
 
 FloatArray = npt.NDArray[np.float64]
 
 SHIFTS = (-0.45, -0.3, -0.15, 0.15, 0.3, 0.45)
 """Sideways shifts of the racing line that make lanes [m] (clipped to the track, smoothed)."""
+BOX_REANCHOR = 0.8
+"""``kernel.REANCHOR`` while the car steers round a box [m]."""
+PREDICT_STEPS = 30
+"""Steps of ``kernel.PREDICT_DT`` over which other cars are predicted (3 s)."""
+PACE_TIME = 1.0
+"""Time over which another car's pace ratio is smoothed [s]."""
+HOLD_GRIP = float(__import__("os").environ.get("HOLD_GRIP", "0.8"))
+"""Share of the driver's grip used when holding an offset beside a car (parallel to the
+centre line, whose bends are less smooth than the lanes')."""
 LANE_GRIP = 0.9
 """Share of the driver's grip used on lanes other than the racing line."""
 APEX_CURVATURE = 0.5
@@ -151,7 +160,8 @@ class Planner:
                  accel_factor: float = 1.0, margin: float = 0.12, cover_gap: float = 1.5,
                  lateral_margin: float = 0.1, long_margin: float = 0.15,
                  yaw_damping: float = 0.05, follow_cost: float = 0.2,
-                 switch_cost: float = 0.05) -> None:
+                 switch_cost: float = 0.05, switch_curvature: float = 0.3,
+                 follow_gap: float = 0.25, follow_time: float = 0.15) -> None:
         for key, value, low, high in (("grip_factor", grip_factor, 0.3, 1.0),
                                       ("brake_factor", brake_factor, 0.2, 1.0),
                                       ("accel_factor", accel_factor, 0.2, 1.0),
@@ -173,12 +183,17 @@ class Planner:
         self.yaw_damping = float(yaw_damping)
         self.follow_cost = float(follow_cost)
         self.switch_cost = float(switch_cost)
+        self.switch_curvature = float(switch_curvature)
+        self.follow_gap = float(follow_gap)
+        self.follow_time = float(follow_time)
         self.lanes: Lanes | None = None
         self._track: Track | None = None
         self._plan = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0), np.zeros(0),
-                      np.zeros(0))
+                      np.zeros(0), np.zeros(0))
         self._cover = np.zeros(0, dtype=np.int64)
         self._covered = np.zeros(0, dtype=np.int64)
+        self._ratio = np.ones((0, 0))
+        self._reanchor = np.zeros(0)
 
     def reset(self, core: RaceCore) -> None:
         """Build (or fetch) the lanes of ``core.track`` and clear every copy's plan."""
@@ -194,9 +209,11 @@ class Planner:
             self._track = core.track
         e = core.num_envs
         self._plan = (np.full(e, -1, dtype=np.int64), np.zeros(e), np.zeros(e), np.zeros(e),
-                      np.ones(e))
+                      np.ones(e), np.zeros(e))
         self._cover = np.full(e, -1, dtype=np.int64)
         self._covered = np.full(e, -1, dtype=np.int64)
+        self._ratio = np.ones((e, core.num_cars))
+        self._reanchor = np.full(e, kernel.REANCHOR)
 
     def _params(self, core: RaceCore) -> FloatArray:
         car = core.config.car
@@ -214,11 +231,13 @@ class Planner:
         params[kernel.P_DEV_COST] = 0.02
         params[kernel.P_GAIN] = car.speed_gain
         params[kernel.P_DT] = core.dt
-        params[kernel.P_FOLLOW_GAP] = 0.25
-        params[kernel.P_FOLLOW_TIME] = 0.15
+        params[kernel.P_FOLLOW_GAP] = self.follow_gap
+        params[kernel.P_FOLLOW_TIME] = self.follow_time
         params[kernel.P_FOLLOW_GAIN] = 1.5
         params[kernel.P_V_MAX] = core.config.max_speed
         params[kernel.P_FOLLOW_COST] = self.follow_cost
+        params[kernel.P_SWITCH_CURVATURE] = self.switch_curvature
+        params[kernel.P_A_LANE] = HOLD_GRIP * params[kernel.P_A_LAT]
         return params
 
     def act(self, core: RaceCore, car: int) -> npt.NDArray[np.float32]:
@@ -237,6 +256,10 @@ class Planner:
         err = np.remainder(core.yaw[:, car] - psi + math.pi, 2.0 * math.pi) - math.pi
         slope = np.clip(np.tan(np.clip(err, -1.2, 1.2)) * (1.0 - kc * d), -1.0, 1.0)
         objects = self._objects(core, car)
+        cap, ratio = self._pace(core, car, lanes)
+        traj = np.empty(objects[0].shape + (PREDICT_STEPS + 1,))
+        kernel.predict(objects[0], objects[3], cap, ratio, s, lanes.speed[:1], lanes.inv_ds,
+                       lanes.length, core.config.car.max_accel, traj)
         transitions = np.stack([0.8 + 0.5 * v, 1.2 + 1.0 * v], axis=1)
         horizon = np.clip(np.maximum(transitions[:, 1] + 1.0, 1.6 * v), 3.0, 8.0)
         look = lookahead(v, 0.35, 0.15, 1.5)
@@ -245,13 +268,18 @@ class Planner:
         choice = np.empty(e, dtype=np.int64)
         d_look = np.empty(e)
         v_cmd = np.empty(e)
-        self.report = np.empty((e, lanes.offset.shape[0], transitions.shape[1], 3))
+        self.report = np.empty((e, lanes.offset.shape[0] + 1, transitions.shape[1], 3))
         kernel.plan(s, d, slope, v, lanes.offset, lanes.speed, lanes.curvature, lanes.centre,
-                    lanes.inv_ds, lanes.length, transitions, horizon, 30, *objects, bonus,
-                    *self._plan, self._params(core), look, choice, d_look, v_cmd,
-                    self.report)
+                    lanes.inv_ds, lanes.length, transitions, horizon, 30, *objects[:3], traj,
+                    *objects[3:], bonus,
+                    *self._plan, self._params(core), self._reanchor, look, choice, d_look,
+                    v_cmd, self.report)
         self.choice = choice
+        planned = d_look
         d_look, v_cmd = avoid_obstacles(core, car, s + look, d_look, v_cmd)
+        # Round a box the car leaves its path on purpose: keep the path to come back to.
+        self._reanchor = np.where(np.abs(d_look - planned) > 0.01, BOX_REANCHOR,
+                                  kernel.REANCHOR)
         target = track.point_at(s + look, d_look)
         steer = pursuit_steer(core, car, target)
         if self.yaw_damping:
@@ -260,6 +288,31 @@ class Planner:
             wanted = v * np.tan(steer) / core.config.car.wheelbase
             steer = steer - self.yaw_damping * (core.yaw_rate[:, car] - wanted)
         return to_action(core, steer, v_cmd)
+
+    def _pace(self, core: RaceCore, car: int, lanes: Lanes) -> tuple[FloatArray, FloatArray]:
+        """Top speed and pace ratio of each object slot (E, N + B) for ``kernel.predict``.
+
+        A car's pace ratio is its speed over the planner's racing-line profile where that
+        profile is below top speed (in and near corners), smoothed over ``PACE_TIME``: a
+        ``racing_line`` at grip 0.6 settles near ``sqrt(0.6 / grip_factor)``. It starts at 1
+        (as fast as the planner). Bots keep their own constant speed.
+        """
+        if self._ratio.shape != (core.num_envs, core.num_cars):
+            self._ratio = np.ones((core.num_envs, core.num_cars))
+        profile = np.interp(np.remainder(core.s, lanes.length) * lanes.inv_ds,
+                            np.arange(lanes.speed.shape[1] + 1),
+                            np.append(lanes.speed[0], lanes.speed[0, 0]))
+        cornering = core.racing & (profile < 0.95 * core.config.max_speed)
+        rate = min(1.0, core.dt / PACE_TIME)
+        seen = np.clip(core.speed / np.maximum(profile, 0.1), 0.3, 1.5)
+        self._ratio = np.where(cornering, self._ratio + rate * (seen - self._ratio),
+                               self._ratio)
+        cap = np.full(self._ratio.shape, core.config.max_speed)
+        ratio = self._ratio
+        if core.num_bots:
+            cap = np.concatenate([cap, core.bot_speed], axis=1)
+            ratio = np.concatenate([ratio, np.full(core.bot_speed.shape, 10.0)], axis=1)
+        return np.ascontiguousarray(cap), np.ascontiguousarray(ratio)
 
     def _objects(self, core: RaceCore, car: int) -> tuple[Any, ...]:
         """Other cars and bots as the kernel's object slots (E, N + B) (see ``plan``)."""

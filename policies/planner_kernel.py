@@ -36,12 +36,17 @@ import math
 import numpy as np
 from numba import njit
 
+PREDICT_DT = 0.1
+"""Time step of the other cars' predicted travel [s]."""
+SIDE_COST = 1.0
+"""Cost of a candidate that closes in on a car beside it [s] (it is taken only when every
+other one does too)."""
+FOLLOW_PREVIEW = 0.6
+"""Time over which a car ahead moving sideways counts as in the way when following [s]."""
 LATERAL_PREVIEW = 0.4
 """Time over which another car's lateral speed is extrapolated [s]."""
 REANCHOR = 0.3
 """Distance from its tracked path beyond which the car starts a new one from where it is [m]."""
-SWITCH_CURVATURE = 0.3
-"""Largest centre-line curvature over a transition to another lane [1/m] (radius 3.3 m)."""
 MAX_SLOPE = 0.2
 """Steepest lateral slope dd/ds of a transition between lanes (11 degrees)."""
 OVER_SPEED = 0.1
@@ -52,8 +57,8 @@ OVER_WEIGHT = 0.5
 # Indices into the kernel's packed parameters (``params``).
 P_A_LAT, P_A_ACC, P_A_BRK, P_EDGE, P_HALF_LEN, P_HALF_WID, P_LONG_MARGIN, P_LAT_MARGIN, \
     P_CLOSING_MARGIN, P_SWITCH_COST, P_DEV_COST, P_GAIN, P_DT, P_FOLLOW_GAP, P_FOLLOW_TIME, \
-    P_FOLLOW_GAIN, P_V_MAX, P_FOLLOW_COST = range(18)
-NUM_PARAMS = 18
+    P_FOLLOW_GAIN, P_V_MAX, P_FOLLOW_COST, P_SWITCH_CURVATURE, P_A_LANE = range(20)
+NUM_PARAMS = 20
 
 
 @njit(cache=True, inline="always")
@@ -82,18 +87,20 @@ def _blend(u):  # pragma: no cover
 
 
 @njit(cache=True)
-def plan(s0, d0, slope0, v0, lane_d, lane_v, lane_k, centre, inv_ds, length, transitions, horizon, samples,
-         obj_gap, obj_lo, obj_hi, obj_v, obj_dd, obj_half_len, obj_half_wid, obj_valid,
-         lane_bonus, plan_lane, plan_start, plan_error, plan_slope, plan_length, params, look, choice,
-         d_look, v_cmd, report):  # pragma: no cover
+def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, transitions, horizon, samples,
+         obj_gap, obj_lo, obj_hi, traj, obj_v, obj_dd, obj_half_len, obj_half_wid, obj_valid,
+         lane_bonus, plan_lane, plan_start, plan_error, plan_slope, plan_length, plan_hold,
+         params, reanchor, look, choice, d_look, v_cmd, report):  # pragma: no cover
     """Choose a manoeuvre per env copy and return its look-ahead offset and speed command.
 
     Args:
         s0, d0, slope0, v0: The car's arc position [m], offset [m], lateral slope dd/ds and
             speed [m/s], each (E,).
-        lane_d, lane_v, lane_k: Lane tables, each (NL, K): offset [m], profile speed [m/s]
+        base_d, base_v, base_k: Lane tables, each (NL, K): offset [m], profile speed [m/s]
             and curvature [1/m] of each lane on the uniform grid of ``inv_ds`` (lane 0 is
-            the racing line).
+            the racing line). Lane NL, added here, *holds* an offset: the car's own when it
+            is chosen (``plan_hold``), driven parallel to the centre line, at most at the
+            racing line's speed: the way to stay beside a car until it is passed.
         centre: Centre-line tables, (3, K): curvature [1/m], left and right half-width [m].
         inv_ds, length: Grid density [1/m] and lap length [m].
         transitions: (E, NT) transition lengths [m].
@@ -102,32 +109,47 @@ def plan(s0, d0, slope0, v0, lane_d, lane_v, lane_k, centre, inv_ds, length, tra
         obj_*: Other cars and bots, (E, J): arc gap ahead of the car (wrapped) [m], lateral
             span now (lo, hi) [m], speed [m/s], lateral speed [m/s], half length and half
             width [m], and whether the slot holds an object.
+        traj: (E, J, P) each object's predicted travel (``predict``) [m].
         lane_bonus: (E, NL) cost subtracted from each lane's candidates [s] (defence).
         plan_lane, plan_start, plan_error, plan_slope, plan_length: (E,) the path being
             tracked, updated in place: its lane (-1: none yet), and the arc position [m],
             offset error from the lane [m], slope error and length [m] of its transition
-            onto the lane. It is kept while
+            onto the lane, and the offset a hold keeps [m]. It is kept while
             the choice stays (re-anchored at the car when the car is more than
-            ``REANCHOR`` off it), so that the steering tracks a fixed path rather than one
+            ``reanchor`` off it), so that the steering tracks a fixed path rather than one
             that restarts at the car every step.
         params: Packed parameters (``P_*``).
+        reanchor: (E,) distance from the tracked path beyond which the car starts a new one
+            from where it is [m] (``REANCHOR``; larger while the driver steers round a box,
+            which takes the car off its path on purpose).
         look: (E,) look-ahead distance of the steering target [m].
         choice: Out (E,): chosen lane, or -1 when following (the tracked path is kept and
             the speed capped behind the car ahead).
         d_look: Out (E,): the tracked path's offset at ``s0 + look`` [m].
         v_cmd: Out (E,): speed command [m/s].
-        report: Out (E, NL, NT, 3): each candidate's time to the horizon [s] (behind the
+        report: Out (E, NL + 1, NT, 3): each candidate's time to the horizon [s] (behind the
             car it would hit, for one that is not free), the object it would hit (-1: none)
             and how far it leaves the track [m] (for tests and diagnosis; lanes not looked at
             alone hold nan).
     """
     num_env = s0.shape[0]
-    num_lanes = lane_d.shape[0]
+    hold_lane = base_d.shape[0]
+    num_lanes = hold_lane + 1
+    count = base_d.shape[1]
+    lane_d = np.empty((num_lanes, count))
+    lane_v = np.empty((num_lanes, count))
+    lane_k = np.empty((num_lanes, count))
+    lane_d[:hold_lane] = base_d
+    lane_v[:hold_lane] = base_v
+    lane_k[:hold_lane] = base_k
     num_trans = transitions.shape[1]
     work = np.empty((4, samples + 1))
     report[:] = np.nan
     for e in range(num_env):
         step = horizon[e] / samples
+        window = (s0[e] - 1.0, s0[e] + horizon[e] + look[e] + 1.0)
+        if plan_lane[e] == hold_lane:
+            _fill_hold(lane_d, lane_v, lane_k, plan_hold[e], window, centre, inv_ds, params)
         # The path being tracked: its offset and slope here, or the car's own when there is
         # none yet or the car is more than REANCHOR off it.
         ref = d0[e]
@@ -145,7 +167,7 @@ def plan(s0, d0, slope0, v0, lane_d, lane_v, lane_k, centre, inv_ds, length, tra
                         plan_length[e], s0[e], inv_ds, length)
             ref_slope = (_path(lane_d, stay, plan_start[e], plan_error[e], plan_slope[e],
                                plan_length[e], s0[e] + 0.05, inv_ds, length) - ref) / 0.05
-            if abs(ref - d0[e]) > REANCHOR:
+            if abs(ref - d0[e]) > reanchor[e]:
                 ref = d0[e]
                 ref_slope = np.nan
                 stay = -1
@@ -155,9 +177,17 @@ def plan(s0, d0, slope0, v0, lane_d, lane_v, lane_k, centre, inv_ds, length, tra
         for o in range(obj_gap.shape[1]):
             if obj_valid[e, o] and -1.0 < obj_gap[e, o] < horizon[e] + 1.0:
                 busy = True
-        for lane in range(num_lanes):
+        for lane in range(hold_lane):
             if lane_bonus[e, lane] != 0.0:
                 busy = True
+        hold = ref
+        if stay == hold_lane:
+            hold = plan_hold[e]
+        else:
+            left_w = _table(centre, 1, s0[e], inv_ds, length) - params[P_EDGE]
+            right_w = _table(centre, 2, s0[e], inv_ds, length) - params[P_EDGE]
+            hold = min(max(ref, -right_w), left_w)
+            _fill_hold(lane_d, lane_v, lane_k, hold, window, centre, inv_ds, params)
         base_excess = _excess(ref, s0[e], centre, inv_ds, length, params[P_EDGE])
         best = (1e18, -1, 1.0, 0.0, True)  # cost, lane, transition, first speed, following
         stay_best = best
@@ -173,10 +203,10 @@ def plan(s0, d0, slope0, v0, lane_d, lane_v, lane_k, centre, inv_ds, length, tra
                 cost, v1, hit, excess, trans = _candidate(
                     lane, trans, ref, ref_slope, s0[e], v0[e], step, samples, e, lane_d,
                     lane_v, lane_k, centre, inv_ds, length, horizon[e], obj_gap, obj_lo,
-                    obj_hi, obj_v, obj_dd, obj_half_len, obj_half_wid, obj_valid, params,
+                    obj_hi, traj, obj_dd, obj_half_len, obj_half_wid, obj_valid, params,
                     work)
-                if lane != stay and stay >= 0 and _bend(centre, s0[e], trans, inv_ds,
-                                                        length) > SWITCH_CURVATURE:
+                if lane != stay and stay >= 0 and lane != hold_lane and _bend(centre, s0[e], trans, inv_ds,
+                                                        length) > params[P_SWITCH_CURVATURE]:
                     continue  # no change of lane in a bend: set passes up before it
                 if j < num_trans:
                     report[e, lane, j, 0] = cost
@@ -186,7 +216,8 @@ def plan(s0, d0, slope0, v0, lane_d, lane_v, lane_k, centre, inv_ds, length, tra
                     nearest = (excess, lane, trans, v1)
                 if excess > base_excess + 0.01:
                     continue
-                cost -= lane_bonus[e, lane]
+                if lane < hold_lane:
+                    cost -= lane_bonus[e, lane]
                 if cost < best[0]:
                     best = (cost, lane, trans, v1, hit >= 0)
                 if lane == stay and cost < stay_best[0]:
@@ -200,8 +231,8 @@ def plan(s0, d0, slope0, v0, lane_d, lane_v, lane_k, centre, inv_ds, length, tra
             following = True
         choice[e] = -1 if following else lane
         if following:
-            v1 = min(v1, _follow_speed(e, d0, v0, obj_gap, obj_lo, obj_hi, obj_v, obj_half_len,
-                                       obj_half_wid, obj_valid, params))
+            v1 = min(v1, _follow_speed(e, d0, v0, obj_gap, obj_lo, obj_hi, obj_v, obj_dd,
+                                       obj_half_len, obj_half_wid, obj_valid, params))
         if lane != stay or stay < 0:
             if lane != plan_lane[e] or stay < 0:
                 lane_here = _table(lane_d, lane, s0[e], inv_ds, length)
@@ -213,6 +244,7 @@ def plan(s0, d0, slope0, v0, lane_d, lane_v, lane_k, centre, inv_ds, length, tra
                 plan_start[e] = s0[e]
                 plan_length[e] = trans
                 plan_lane[e] = lane
+                plan_hold[e] = hold
         d_look[e] = _path(lane_d, plan_lane[e], plan_start[e], plan_error[e], plan_slope[e],
                           plan_length[e], s0[e] + look[e], inv_ds, length)
         v_cmd[e] = _command(v0[e], v1, step, params)
@@ -220,14 +252,14 @@ def plan(s0, d0, slope0, v0, lane_d, lane_v, lane_k, centre, inv_ds, length, tra
 
 @njit(cache=True)
 def _candidate(lane, trans, ref, ref_slope, s_start, v_start, step, samples, e, lane_d, lane_v,
-               lane_k, centre, inv_ds, length, horizon, obj_gap, obj_lo, obj_hi, obj_v, obj_dd,
+               lane_k, centre, inv_ds, length, horizon, obj_gap, obj_lo, obj_hi, traj, obj_dd,
                obj_half_len, obj_half_wid, obj_valid, params, work):  # pragma: no cover
     """Evaluate one candidate: the blend from (``ref``, ``ref_slope``) onto ``lane`` over
     ``trans`` metres. Returns its cost [s] (time to the horizon, plus the follow cost when it
     must slow behind a car, plus the cost of ending off the racing line), its speed at the
     first sample [m/s], the object it would hit (-1: none), how far it leaves the track [m]
     and its transition length [m]. ``work`` is scratch space, (4, samples + 1)."""
-    v_lim, vel, dpath = work[0], work[1], work[2]
+    v_lim, vel, dpath, times = work[0], work[1], work[2], work[3]
     lane_start = _table(lane_d, lane, s_start, inv_ds, length)
     e0 = ref - lane_start
     # A lateral move of e0 over T metres has a largest slope of 1.875 e0 / T: keep it
@@ -257,16 +289,21 @@ def _candidate(lane, trans, ref, ref_slope, s_start, v_start, step, samples, e, 
     over = _profile(v_lim, vel, step, v_start, params[P_A_ACC], params[P_A_BRK], samples)
     # A path the car is already too fast for counts as leaving the track: it would slide.
     excess = max(excess, OVER_WEIGHT * max(over - OVER_SPEED, 0.0))
-    t, hit = _run(dpath, vel, step, s_start, e, centre, inv_ds, length, obj_gap, obj_lo,
-                  obj_hi, obj_v, obj_dd, obj_half_len, obj_half_wid, obj_valid, params, samples)
+    t, hit, beside = _run(dpath, vel, times, step, s_start, e, centre, inv_ds, length, obj_gap,
+                          obj_lo, obj_hi, traj, obj_dd, obj_half_len, obj_half_wid, obj_valid,
+                          params, True)
     if hit >= 0:
-        # The same path behind the car it would hit, at that car's speed at most.
+        # The same path behind the car it would hit, at that car's predicted speed at most.
         for i in range(samples + 1):
-            v_lim[i] = min(v_lim[i], obj_v[e, hit])
+            ahead = (_travel(traj, e, hit, times[i] + 0.05)
+                     - _travel(traj, e, hit, times[i])) / 0.05
+            v_lim[i] = min(v_lim[i], ahead)
         _profile(v_lim, vel, step, v_start, params[P_A_ACC], params[P_A_BRK], samples)
-        t, _ = _run(dpath, vel, step, s_start, e, centre, inv_ds, length, obj_gap, obj_lo,
-                    obj_hi, obj_v, obj_dd, obj_half_len, obj_half_wid, obj_valid, params, -1)
-        t += params[P_FOLLOW_COST]
+        t, _, _ = _run(dpath, vel, times, step, s_start, e, centre, inv_ds, length, obj_gap,
+                       obj_lo, obj_hi, traj, obj_dd, obj_half_len, obj_half_wid, obj_valid,
+                       params, False)
+        # Slowing down does not mend a path that closes in on a car beside it.
+        t += params[P_FOLLOW_COST] + (SIDE_COST if beside else 0.0)
     line_end = _table(lane_d, 0, s_start + horizon, inv_ds, length)
     t += params[P_DEV_COST] * abs(dpath[samples] - line_end)
     return t, vel[1], hit, excess, trans
@@ -282,26 +319,42 @@ def _path(lane_d, lane, start, error, slope, trans, s, inv_ds, length):  # pragm
     return _table(lane_d, lane, s, inv_ds, length) + error * h0 + slope * trans * h1
 
 
+@njit(cache=True, inline="always")
+def _travel(traj, e, o, t):  # pragma: no cover
+    """Distance object ``o`` of copy ``e`` is predicted to travel in ``t`` seconds [m]
+    (``traj`` holds it every ``PREDICT_DT``; beyond its end at its last speed)."""
+    u = t / PREDICT_DT
+    k = int(u)
+    last = traj.shape[2] - 1
+    if k >= last:
+        return traj[e, o, last] + (traj[e, o, last] - traj[e, o, last - 1]) * (u - last)
+    return traj[e, o, k] + (u - k) * (traj[e, o, k + 1] - traj[e, o, k])
+
+
 @njit(cache=True)
-def _run(dpath, vel, step, s_start, e, centre, inv_ds, length, obj_gap, obj_lo, obj_hi, obj_v,
-         obj_dd, obj_half_len, obj_half_wid, obj_valid, params, samples):  # pragma: no cover
-    """Drive a candidate (offsets ``dpath``, speeds ``vel`` at its samples): return the time
-    to its end [s] and the first object it comes too near (-1: none). With ``samples`` < 0
-    only the time is computed."""
+def _run(dpath, vel, times, step, s_start, e, centre, inv_ds, length, obj_gap, obj_lo, obj_hi,
+         traj, obj_dd, obj_half_len, obj_half_wid, obj_valid, params, check):  # pragma: no cover
+    """Drive a candidate (offsets ``dpath``, speeds ``vel`` at its samples; the time at each
+    sample is written into ``times``): return the time to its end [s], the first object it
+    comes too near (-1: none; not looked for without ``check``) and whether it comes too
+    near beside it (the bodies overlapping along the track: closing in sideways)."""
     count = dpath.shape[0] - 1
     t = 0.0
+    times[0] = 0.0
     for i in range(count + 1):
         if i > 0:
             kc = _table(centre, 0, s_start + (i - 0.5) * step, inv_ds, length)
             stretch = max(1.0 - kc * 0.5 * (dpath[i] + dpath[i - 1]), 0.2)
             t += step * stretch / max(0.5 * (vel[i] + vel[i - 1]), 0.05)
-        if samples < 0:
+            times[i] = t
+        if not check:
             continue
         for o in range(obj_gap.shape[1]):
             if not obj_valid[e, o]:
                 continue
-            gap = obj_gap[e, o] + obj_v[e, o] * t - i * step
-            closing = max(vel[i] - obj_v[e, o], 0.0)
+            gap = obj_gap[e, o] + _travel(traj, e, o, t) - i * step
+            other_v = (_travel(traj, e, o, t + 0.05) - _travel(traj, e, o, t)) / 0.05
+            closing = max(vel[i] - other_v, 0.0)
             front = (params[P_HALF_LEN] + obj_half_len[e, o] + params[P_LONG_MARGIN]
                      + params[P_CLOSING_MARGIN] * closing)
             back = params[P_HALF_LEN] + obj_half_len[e, o]
@@ -312,8 +365,57 @@ def _run(dpath, vel, step, s_start, e, centre, inv_ds, length, obj_gap, obj_lo, 
             hi = max(obj_hi[e, o], obj_hi[e, o] + moved)
             apart = max(lo - dpath[i], dpath[i] - hi, 0.0)
             if apart < params[P_HALF_WID] + obj_half_wid[e, o] + params[P_LAT_MARGIN]:
-                return t, o
-    return t, -1
+                return t, o, gap < back
+    return t, -1, False
+
+
+@njit(cache=True)
+def predict(obj_gap, obj_speed, obj_cap, obj_ratio, s0, line_v, inv_ds, length, accel,
+            traj):  # pragma: no cover
+    """Predict how far each object travels along the track, every ``PREDICT_DT`` seconds.
+
+    An object drives the planner's racing-line profile scaled by its pace ratio (its speed
+    over the profile's where the profile is below top speed, estimated by the driver),
+    at most ``obj_cap``, accelerating at ``accel`` and braking as the scaled profile does:
+    ``v <- min(v + accel dt, cap, ratio v_line(s))``.
+
+    Args:
+        obj_gap, obj_speed, obj_cap, obj_ratio: (E, J) arc gap ahead of the car [m], speed,
+            top speed [m/s] and pace ratio.
+        s0: (E,) the car's arc position [m].
+        line_v: Racing-line profile, (1, K) [m/s].
+        traj: Out (E, J, K + 1): distance travelled [m] at ``k PREDICT_DT``.
+    """
+    for e in range(obj_gap.shape[0]):
+        for o in range(obj_gap.shape[1]):
+            s = s0[e] + obj_gap[e, o]
+            v = obj_speed[e, o]
+            travelled = 0.0
+            traj[e, o, 0] = 0.0
+            for k in range(1, traj.shape[2]):
+                limit = min(obj_cap[e, o],
+                            obj_ratio[e, o] * _table(line_v, 0, s + travelled, inv_ds, length))
+                v_next = min(v + accel * PREDICT_DT, limit)
+                travelled += 0.5 * (v + v_next) * PREDICT_DT
+                v = v_next
+                traj[e, o, k] = travelled
+
+
+@njit(cache=True)
+def _fill_hold(lane_d, lane_v, lane_k, hold, window, centre, inv_ds, params):  # pragma: no cover
+    """Write the hold lane (the last row) at offset ``hold`` over the arc range ``window``:
+    parallel to the centre line (curvature ``kappa_c / (1 - kappa_c d)``), at the cornering
+    speed of ``P_A_LANE`` and at most the racing line's profile speed."""
+    count = lane_d.shape[1]
+    row = lane_d.shape[0] - 1
+    first = int(math.floor(window[0] * inv_ds))
+    last = int(math.ceil(window[1] * inv_ds)) + 1
+    for k in range(first, last + 1):
+        i = k % count
+        kappa = centre[0, i] / max(1.0 - centre[0, i] * hold, 0.2)
+        lane_d[row, i] = hold
+        lane_k[row, i] = kappa
+        lane_v[row, i] = min(lane_v[0, i], math.sqrt(params[P_A_LANE] / max(abs(kappa), 1e-6)))
 
 
 @njit(cache=True)
@@ -360,16 +462,20 @@ def _command(v, v_next, step, params):  # pragma: no cover
 
 
 @njit(cache=True)
-def _follow_speed(e, d0, v0, obj_gap, obj_lo, obj_hi, obj_v, obj_half_len, obj_half_wid,
+def _follow_speed(e, d0, v0, obj_gap, obj_lo, obj_hi, obj_v, obj_dd, obj_half_len, obj_half_wid,
                   obj_valid, params):  # pragma: no cover
     """Speed that holds a gap of ``follow_gap + follow_time v`` to the nearest object ahead
-    that overlaps the car laterally (a large number when there is none) [m/s]."""
+    that overlaps the car laterally now or within ``FOLLOW_PREVIEW`` at its lateral speed (a
+    large number when there is none) [m/s]."""
     lead_v = 1e9
     lead_gap = 1e9
     for o in range(obj_gap.shape[1]):
         if not obj_valid[e, o] or obj_gap[e, o] <= 0.0:
             continue
-        apart = max(obj_lo[e, o] - d0[e], d0[e] - obj_hi[e, o], 0.0)
+        moved = obj_dd[e, o] * FOLLOW_PREVIEW
+        lo = min(obj_lo[e, o], obj_lo[e, o] + moved)
+        hi = max(obj_hi[e, o], obj_hi[e, o] + moved)
+        apart = max(lo - d0[e], d0[e] - hi, 0.0)
         if apart > params[P_HALF_WID] + obj_half_wid[e, o] + params[P_LAT_MARGIN]:
             continue
         gap = obj_gap[e, o] - params[P_HALF_LEN] - obj_half_len[e, o]

@@ -10,13 +10,9 @@ env's continuous action space, ``[steer, speed]`` in ``[-1, 1]``, one row per en
 | ``racing_line`` | :class:`RacingLine` | minimum-curvature line and its speed profile |
 | ``blocker`` | :class:`Blocker` | inner lane; moves across to cover an attacker close behind |
 | ``random`` | :class:`Random` | uniform random actions (fuzzing; it does not finish laps) |
+| ``planner`` | :class:`~h2h_racing.policies.planner.Planner` | plans passes round the cars ahead, defends once per corner (:mod:`h2h_racing.policies.planner`) |
 
-Steering is pure pursuit (Coulter, *Implementation of the Pure Pursuit Path Tracking
-Algorithm*, CMU-RI-TR-92-01, 1992): with the rear axle at ``p``, a target point ``q`` on the
-path at distance ``l_d`` and ``alpha`` the angle of ``q - p`` from the car's heading, the arc
-through ``p`` and ``q`` has curvature ``2 sin(alpha) / l_d``, hence the steering angle
-``delta = atan(2 L sin(alpha) / l_d)`` with ``L`` the wheelbase. The car model is close to
-neutral steer (``l_f C_f = l_r C_r``), so the kinematic angle holds up to the grip limit.
+The drivers steer by pure pursuit (:mod:`h2h_racing.policies.steering`).
 
 Each driver class declares the settings a driver spec may give it (``SETTINGS``, e.g.
 ``racing_line:grip_factor=0.7``; see :mod:`h2h_racing.policies.registry`, which builds
@@ -38,8 +34,14 @@ import numpy.typing as npt
 from h2h_racing.config import EnvConfig, RaceRules
 from h2h_racing.core import RaceCore
 from h2h_racing.policies.obstacles import avoid_obstacles
+from h2h_racing.policies.planner import Planner
 from h2h_racing.policies.racing_line import GRAVITY, RaceLine, compute_race_line
 from h2h_racing.policies.registry import Setting, make_driver  # make_driver: re-exported
+from h2h_racing.policies.steering import (  # re-exported: the drivers' shared helpers
+    lookahead,
+    pursuit_steer,
+    to_action,
+)
 from h2h_racing.track import Track
 
 FloatArray = npt.NDArray[np.float64]
@@ -62,52 +64,6 @@ class Driver(Protocol):
 
 
 # ---------------------------------------------------------------------- helpers
-
-
-def to_action(core: RaceCore, steer_rad: FloatArray, speed_mps: FloatArray) -> ActionArray:
-    """Map a steering angle and a speed to the env's continuous action, with clipping.
-
-    The inverse of ``EnvConfig.commands``: ``steer = (delta - steer_mid) / steer_half`` and
-    ``speed = (v - speed_mid) / speed_half`` (``EnvConfig.action_affine``), both clipped to
-    [-1, 1].
-
-    Args:
-        core: The simulation core (for the car and speed limits).
-        steer_rad: Steering angles, shape (E,) [rad], left positive.
-        speed_mps: Commanded speeds, shape (E,) [m/s].
-
-    Returns:
-        Actions, shape (E, 2), float32.
-    """
-    steer_mid, steer_half, speed_mid, speed_half = core.config.action_affine
-    steer = (np.asarray(steer_rad, dtype=np.float64) - steer_mid) / steer_half
-    speed = (np.asarray(speed_mps, dtype=np.float64) - speed_mid) / speed_half
-    steer, speed = np.broadcast_arrays(steer, speed)
-    out = np.stack([steer, speed], axis=-1)
-    return np.clip(out, -1.0, 1.0).astype(np.float32)
-
-
-def pursuit_steer(core: RaceCore, car: int, target: FloatArray) -> FloatArray:
-    """Return the pure-pursuit steering angle towards world points ``target`` (E, 2) [rad].
-
-    ``delta = atan(2 L sin(alpha) / l_d)`` from the rear axle (see the module docstring).
-    """
-    params = core.config.car
-    yaw = core.yaw[:, car]
-    cos_yaw, sin_yaw = np.cos(yaw), np.sin(yaw)
-    rear_x = core.position[:, car, 0] - params.cg_to_rear * cos_yaw
-    rear_y = core.position[:, car, 1] - params.cg_to_rear * sin_yaw
-    dx = target[:, 0] - rear_x
-    dy = target[:, 1] - rear_y
-    distance = np.maximum(np.hypot(dx, dy), 1e-6)
-    # sin(alpha) = cross(heading, q - p) / |q - p|.
-    sin_alpha = (cos_yaw * dy - sin_yaw * dx) / distance
-    return np.arctan2(2.0 * params.wheelbase * sin_alpha, distance)
-
-
-def lookahead(speed: FloatArray, base: float, gain: float, limit: float) -> FloatArray:
-    """Return the look-ahead distance ``min(base + gain |v|, limit)`` [m], shape of ``speed``."""
-    return np.minimum(base + gain * np.abs(speed), limit)
 
 
 def _offset_curvature(kappa: FloatArray, d: FloatArray | float) -> FloatArray:
@@ -445,9 +401,10 @@ DRIVERS: dict[str, Callable[..., Driver]] = {
     "racing_line": RacingLine,
     "blocker": Blocker,
     "random": Random,
+    "planner": Planner,
 }
 """Driver constructors by registry name."""
-TEACHERS = ("racing_line", "pure_pursuit", "blocker")
+TEACHERS = ("racing_line", "pure_pursuit", "blocker", "planner")
 """Drivers that can label actions for imitation learning (deterministic functions of the state;
 ``random`` teaches nothing)."""
 
