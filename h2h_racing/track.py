@@ -48,6 +48,12 @@ BLEND_HALF_WIDTH = 0.01
 BORDER_TOLERANCE = 0.005
 """Largest overlap [m] of an explicit (file-given) border crossing that is accepted as a drawing glitch."""
 
+MAX_TRACK_VERTICES = 100_000
+"""Most centre-line vertices a track may have. Real tracks have a few hundred to a few thousand (a
+TUMFTM circuit at 1 m spacing about 5,000); the checks load 100,000 in about 1.5 s, but every
+racing env's lookup grid (:mod:`h2h_racing.track_projection`) costs time in proportion to the vertex
+count, so thin a denser file out (every k-th row) before loading it."""
+
 _ALL = np.zeros(0, dtype=bool)  # an empty mask means "project every point"
 
 
@@ -101,6 +107,11 @@ class Track:
         where = self._where
         centre = _as_xy("centre", self.centre, where)
         m = len(centre)
+        if m > MAX_TRACK_VERTICES:
+            raise ValueError(
+                f"{where}: the centre line has {m} vertices; at most {MAX_TRACK_VERTICES} are allowed "
+                "(h2h_racing.track.MAX_TRACK_VERTICES). Thin the file out, e.g. keep every k-th row."
+            )
         wl = self._as_widths("width_left", self.width_left, m)
         wr = self._as_widths("width_right", self.width_right, m)
         explicit = self.left_border is not None or self.right_border is not None

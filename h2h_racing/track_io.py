@@ -36,6 +36,9 @@ _SUFFIXES = (".json", ".npy", ".csv")
 ROUTE_TOLERANCE = 0.01
 """Largest step [m] between consecutive route rows that counts as a drawing slip (a near-duplicate
 row or a tiny step backwards) and is left out of the geometry; DeepRacer's rows are ~5-30 cm apart."""
+MAX_TRACK_FILE_BYTES = 32 * 2**20
+"""Largest track file read [bytes]: a JSON file of :data:`h2h_racing.track.MAX_TRACK_VERTICES`
+vertices written by :func:`save_track` is about 9 MB, a CSV about 6 MB, a route ``.npy`` 5 MB."""
 RANDOM_PREFIX = "random:"
 """``load_track("random:<seed>")`` generates a track with :func:`h2h_racing.track_gen.random_track`."""
 
@@ -101,6 +104,12 @@ def load_track(
             )
         if not path.is_file():
             raise FileNotFoundError(f"Track file not found: {path.resolve()}")
+        size = path.stat().st_size
+        if size > MAX_TRACK_FILE_BYTES:
+            raise ValueError(
+                f"{path}: the file is {size} bytes; a track file may be at most {MAX_TRACK_FILE_BYTES} bytes "
+                "(h2h_racing.track_io.MAX_TRACK_FILE_BYTES, room for 100,000 vertices)."
+            )
         readers = {".json": _read_json, ".npy": _read_npy, ".csv": _read_csv}
         track = readers[path.suffix.lower()](path)
     if scale is not None:

@@ -3,7 +3,12 @@
 from __future__ import annotations
 
 import math
+import pathlib
 import pickle
+import re
+import subprocess
+import sys
+import textwrap
 
 import numpy as np
 import pytest
@@ -271,3 +276,76 @@ class TestValidation:
         spike = np.array([(0, 0), (4, 0), (4, 4), (4, 2), (0, 4)], float)
         with pytest.raises(ValueError, match=r"vertex"):
             Track(spike, 0.3, 0.3)
+
+
+def _run_python(code: str, timeout: float = 60.0) -> subprocess.CompletedProcess[str]:
+    """Run ``code`` in a fresh interpreter; a check that went quadratic runs past ``timeout``."""
+    return subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True, text=True,
+                          timeout=timeout, check=False)
+
+
+class TestLargeTracks:
+    """The simple-polygon check is O(n log n): tens of thousands of vertices load in about a second
+    (the pairwise check took 137 s for 20,000 and over 300 s for 50,000), and the vertex count and the
+    file size are bounded."""
+
+    # An ellipse of N vertices 5 cm apart, and the same number on a figure of eight.
+    SETUP = """
+        import numpy as np
+        from h2h_racing.track import Track
+        n = {n}
+        t = np.linspace(0, 2 * np.pi, n, endpoint=False)
+        r = n * 0.05 / (2 * np.pi)
+        ellipse = np.stack([r * np.cos(t), 0.6 * r * np.sin(t)], axis=1)
+        eight = np.stack([r * np.sin(t), r * np.sin(2 * t) / 2], axis=1)
+    """
+
+    def test_large_valid_track(self) -> None:
+        code = self.SETUP.format(n=50_000) + """
+        track = Track(ellipse, 0.5, 0.5, name="big")
+        print(len(track.centre))
+        """
+        result = _run_python(code)
+        assert result.returncode == 0, result.stderr
+        assert result.stdout.strip() == "50000"
+
+    def test_large_self_intersecting_track(self) -> None:
+        # x = r sin t, y = r sin 2t / 2 crosses itself at the origin (vertices 0 and n / 2), where the
+        # segments around vertex 0 meet those around vertex n / 2.
+        code = self.SETUP.format(n=50_000) + """
+        try:
+            Track(eight, 0.5, 0.5, name="eight")
+        except ValueError as exc:
+            print(exc)
+        """
+        result = _run_python(code)
+        assert result.returncode == 0, result.stderr
+        assert re.search(r"'eight'.*centre line crosses itself near \(-?0\.0000, -?0\.0000\): the segment from "
+                         r"vertex (0|2499\d|2500\d|4999\d) .* meets the segment from vertex (2499\d|2500\d|4999\d) ",
+                         result.stdout), result.stdout
+
+    def test_vertex_count_is_bounded(self) -> None:
+        # In a subprocess: without the bound the check would run for many minutes.
+        code = """
+        import numpy as np
+        from h2h_racing.track import MAX_TRACK_VERTICES, Track
+        n = MAX_TRACK_VERTICES + 1
+        t = np.linspace(0, 2 * np.pi, n, endpoint=False)
+        try:
+            Track(np.stack([1e3 * np.cos(t), 1e3 * np.sin(t)], axis=1), 0.5, 0.5, name="huge")
+        except ValueError as exc:
+            print(exc)
+        """
+        result = _run_python(code)
+        assert result.returncode == 0, result.stderr
+        assert "'huge' (<memory>): the centre line has 100001 vertices; at most 100000 are allowed" in result.stdout
+
+    def test_file_size_is_bounded(self, tmp_path: pathlib.Path) -> None:
+        from h2h_racing.track_io import MAX_TRACK_FILE_BYTES, load_track
+
+        path = tmp_path / "huge.csv"
+        with path.open("wb") as f:
+            f.truncate(MAX_TRACK_FILE_BYTES + 1)  # sparse: no disk written
+        with pytest.raises(ValueError, match=rf"huge\.csv: the file is {MAX_TRACK_FILE_BYTES + 1} bytes.*"
+                           rf"at most {MAX_TRACK_FILE_BYTES}"):
+            load_track(path)
