@@ -33,6 +33,17 @@ ActionType = Literal["continuous", "discrete"]
 
 MAX_BOTS = 12
 """Most bot cars per env copy (DeepRacer's community races allow 6; the league qualifier runs 6)."""
+MAX_CARS = 16
+"""Most cars per env copy (``EnvConfig.num_cars``)."""
+MAX_OPPONENT_SLOTS = MAX_CARS - 1 + MAX_BOTS
+"""Most opponent slots of the state observation: every other car and every bot."""
+MAX_OBSTACLE_SLOTS = 32
+"""Most obstacle slots of the state observation: every box (``num_obstacles`` <= 32)."""
+MAX_CAMERA_VALUES_ALL_CARS = 2**26
+"""Most camera values one step renders for all cars of a copy (``num_cars * width * height *
+cameras * frame_stack``): 64 MiB of uint8 frames, held several times over (the observation, its
+space's bounds, the frame stack); 16 cars of 160 x 120 with 32 frames are 9.8 M. Past it a
+config asked for gigabytes before the first step."""
 SENSORS: tuple[str, ...] = ("state", "camera", "lidar")
 
 __all__ = [
@@ -187,8 +198,8 @@ class EnvConfig:
 
     def __post_init__(self) -> None:
         owner = type(self).__name__
-        _check(_is_int(self.num_cars) and 1 <= self.num_cars <= 16, owner, "num_cars",
-               self.num_cars, "an int in [1, 16]")
+        _check(_is_int(self.num_cars) and 1 <= self.num_cars <= MAX_CARS, owner, "num_cars",
+               self.num_cars, f"an int in [1, {MAX_CARS}]")
         _check(self.race_type in RACE_TYPES, owner, "race_type", self.race_type,
                f"one of {RACE_TYPES}")
         _check(self.rules is None or isinstance(self.rules, RaceRules), owner, "rules",
@@ -277,9 +288,20 @@ class EnvConfig:
         _check(isinstance(self.camera, CameraConfig), owner, "camera", self.camera,
                "a CameraConfig")
         _check(isinstance(self.lidar, LidarConfig), owner, "lidar", self.lidar, "a LidarConfig")
-        for name in ("opponent_slots", "obstacle_slots"):
+        for name, most in (("opponent_slots", MAX_OPPONENT_SLOTS),
+                           ("obstacle_slots", MAX_OBSTACLE_SLOTS)):
             value = getattr(self, name)
-            _check(_is_int(value) and value >= 0, owner, name, value, "an int >= 0")
+            _check(_is_int(value) and 0 <= value <= most, owner, name, value,
+                   f"an int in [0, {most}]")
+        if "camera" in self.sensors:
+            cam = self.camera
+            values = self.num_cars * cam.width * cam.height * cam.channels
+            _check(values <= MAX_CAMERA_VALUES_ALL_CARS, owner, "camera", cam,
+                   f"at most {MAX_CAMERA_VALUES_ALL_CARS} camera values a step for all cars "
+                   f"(h2h_racing.config.MAX_CAMERA_VALUES_ALL_CARS, 64 MiB; num_cars * width * "
+                   f"height * (2 if stereo else 1) * frame_stack = {self.num_cars} * {cam.width} * "
+                   f"{cam.height} * {cam.cameras} * {cam.frame_stack} = {values}): use fewer "
+                   f"cars, frames or pixels")
 
     @property
     def race_rules(self) -> RaceRules:

@@ -19,6 +19,7 @@ from typing import Any
 from h2h_racing.config_checks import _is_int as _is_integer
 from h2h_racing.config_checks import _is_number
 from h2h_racing.training.imitation import ImitationConfig
+from h2h_racing.training.limits import MAX_NUM_ENVS, MAX_STEPS_PER_ENV, check_count, check_rollout
 from h2h_racing.training.toml_types import build_tables, check_fields, read_toml
 
 ROLES = ("main", "main_exploiter", "league_exploiter")
@@ -101,6 +102,9 @@ class LearnerTraining:
             if not _is_int(getattr(self, name)):
                 raise ValueError(f"[training] {name} must be an integer >= 1, got "
                                  f"{getattr(self, name)!r}")
+        check_count(self.num_envs, "[training]", "num_envs", MAX_NUM_ENVS)
+        check_count(self.num_steps_per_env, "[training]", "num_steps_per_env", MAX_STEPS_PER_ENV)
+        check_rollout(self.num_envs, self.num_steps_per_env, 0, "[training]")
         if not (_is_number(self.learning_rate) and self.learning_rate > 0):
             raise ValueError(f"[training] learning_rate must be a number > 0, got "
                              f"{self.learning_rate!r}")

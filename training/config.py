@@ -24,6 +24,8 @@ from h2h_racing.training.camera_network import check_camera, cnn_config
 from h2h_racing.training.config_file import read_train_toml
 from h2h_racing.training.device import check_device_name
 from h2h_racing.training.imitation import SCRIPTED_TEACHERS, ImitationConfig
+from h2h_racing.training.limits import (MAX_NUM_ENVS, MAX_STEPS_PER_ENV, check_count,
+                                        check_hidden_dims, check_rollout)
 from h2h_racing.training.race_settings import RaceSettings
 from h2h_racing.training.teachers import load_teacher
 from h2h_racing.training.toml_types import build_tables
@@ -290,8 +292,9 @@ class TrainConfig:
         if not isinstance(self.procedural, ProceduralTracks):
             raise ValueError(f"TrainConfig.procedural must be a ProceduralTracks, got "
                              f"{self.procedural!r}")
-        if self.num_envs < 1 or self.num_steps_per_env < 1:
-            raise ValueError("TrainConfig.num_envs and num_steps_per_env must be >= 1")
+        check_count(self.num_envs, "TrainConfig", "num_envs", MAX_NUM_ENVS)
+        check_count(self.num_steps_per_env, "TrainConfig", "num_steps_per_env", MAX_STEPS_PER_ENV)
+        check_hidden_dims(self.hidden_dims, "TrainConfig")
         if self.procedural.tracks > 1 and self.track != PROCEDURAL:
             raise ValueError(f"[procedural] tracks = {self.procedural.tracks} races several "
                              f"random tracks at once: set track = 'procedural' (got "
@@ -341,6 +344,11 @@ class TrainConfig:
             raise ValueError(f"TrainConfig.camera_frames must be an int in [1, "
                              f"{MAX_FRAME_STACK}] (frames per camera observation), got "
                              f"{self.camera_frames!r}")
+        camera_values = 0
+        if "camera" in self.observations:
+            width, height = self.camera_size
+            camera_values = width * height * self.camera_frames * (2 if self.camera_stereo else 1)
+        check_rollout(self.num_envs, self.num_steps_per_env, camera_values, "TrainConfig")
         low, high = HFOV_RANGE_DEG
         if (isinstance(self.camera_hfov, bool) or not isinstance(self.camera_hfov, (int, float))
                 or not low <= self.camera_hfov <= high):

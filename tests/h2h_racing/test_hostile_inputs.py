@@ -317,3 +317,54 @@ def test_model_metadata_says_that_lidar_config_is_ignored(tmp_path) -> None:
     # As in DeepRacer: SECTOR_LIDAR keeps its 8 sectors at 0.5 m whatever lidar_config says.
     assert overrides["lidar"].mode == "sector_lidar"
     assert (overrides["lidar"].sectors, overrides["lidar"].sector_clip) == (8, 0.5)
+
+
+# ---------------------------------------------------------------- upper bounds on counts (issue 38)
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("num_envs = 100000\n", r"num_envs must be an int in \[1, 4096\], got 100000"),
+    ("num_steps_per_env = 10000000\n", r"num_steps_per_env must be an int in \[1, 1024\], got 10000000"),
+    ("hidden_dims = [60000, 60000]\n", r"hidden_dims must be 1 to 8 layer sizes, each an int in \[1, 4096\], "
+                                       r"got \[60000, 60000\]"),
+    ("hidden_dims = [" + "8, " * 100 + "8]\n", r"hidden_dims must be 1 to 8 layer sizes.*a list of 101 values"),
+    ("num_envs = 4096\nnum_steps_per_env = 1024\n", r"4096 \* 1024 transitions .* GiB of rollout storage; "
+                                                    r"at most 4 GiB"),
+    ('observations = "camera_only"\ncamera_size = [640, 480]\ncamera_frames = 8\n',
+     r"256 \* 32 transitions of 2458112 float32 values need 75\.0 GiB"),
+])
+def test_train_toml_counts_are_bounded(tmp_path, text: str, message: str) -> None:
+    # Before, each of these took gigabytes, or gave numpy's or torch's allocation traceback.
+    from h2h_racing.training.config import TrainConfig
+
+    with pytest.raises(ValueError, match=message):
+        TrainConfig.from_toml(write(tmp_path, "t.toml", text))
+
+
+@pytest.mark.parametrize("key", ["num_envs", "num_steps_per_env"])
+def test_league_toml_counts_are_bounded(tmp_path, key: str) -> None:
+    from h2h_racing.league.config import LeagueConfig
+
+    with pytest.raises(ValueError, match=rf"\[training\] {key} must be an int in \[1, \d+\], got 10000000"):
+        LeagueConfig.from_toml(write(tmp_path, "l.toml", f"[training]\n{key} = 10000000\n"))
+
+
+@pytest.mark.parametrize(("field", "value", "allowed"), [
+    ("opponent_slots", 10**9, r"an int in \[0, 27\]"),
+    ("obstacle_slots", 10**9, r"an int in \[0, 32\]"),
+])
+def test_observation_slots_are_bounded(field: str, value: int, allowed: str) -> None:
+    with pytest.raises(ValueError, match=rf"EnvConfig\.{field} must be {allowed}, got {value}"):
+        EnvConfig(**{field: value})
+
+
+def test_camera_values_of_all_cars_are_bounded() -> None:
+    # Each field is in range; together 16 cars of 4096 x 4096 stereo with 32 frames asked for 8 GiB of
+    # observation bounds before anything failed.
+    from h2h_racing.config_sensors import CameraConfig
+
+    camera = CameraConfig(width=4096, height=4096, stereo=True, frame_stack=32)
+    with pytest.raises(ValueError, match=r"EnvConfig\.camera must be at most 67108864 camera values a step "
+                                         r".*16 \* 4096 \* 4096 \* 2 \* 32 = 17179869184"):
+        EnvConfig(num_cars=16, sensors=("camera",), camera=camera)
+    EnvConfig(num_cars=16, sensors=("camera",), camera=CameraConfig(frame_stack=32))
