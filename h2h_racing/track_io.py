@@ -27,7 +27,8 @@ from typing import Any
 import numpy as np
 
 import h2h_racing
-from h2h_racing.track import Track
+from h2h_racing.json_files import read_json_file
+from h2h_racing.track import MAX_TRACK_VERTICES, Track
 
 TRACK_FORMAT = "h2h-racing-track/1"
 """Value of the ``"format"`` key of a catalogue JSON file."""
@@ -145,10 +146,7 @@ def save_track(track: Track, path: str | Path) -> Path:
 
 
 def _read_json(path: Path) -> Track:
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: not valid JSON ({exc}).") from exc
+    doc = read_json_file(path, "a track file", MAX_TRACK_FILE_BYTES)
     if not isinstance(doc, dict):
         raise ValueError(f"{path}: expected a JSON object with keys {list(_JSON_KEYS)}, got {type(doc).__name__}.")
     unknown = sorted(set(doc) - set(_JSON_KEYS))
@@ -180,6 +178,7 @@ def _read_json(path: Path) -> Track:
 
 
 def _read_npy(path: Path) -> Track:
+    _check_npy_header(path)
     try:
         rows = np.load(path, allow_pickle=False)
     except ValueError as exc:
@@ -213,6 +212,34 @@ def _read_npy(path: Path) -> Track:
         right_border=right,
         waypoints=rows[:, 0:2],
     )
+
+
+def _check_npy_header(path: Path) -> None:
+    """Refuse a ``.npy`` file whose header claims more rows than a track may have, or more data
+    than the file holds, before numpy allocates the array the header describes."""
+    try:
+        with path.open("rb") as f:
+            version = np.lib.format.read_magic(f)
+            readers = {(1, 0): np.lib.format.read_array_header_1_0,
+                       (2, 0): np.lib.format.read_array_header_2_0}
+            if version not in readers:
+                raise ValueError(f"format version {version}; 1.0 and 2.0 are read")
+            shape, _, dtype = readers[version](f)
+            data_bytes = path.stat().st_size - f.tell()
+    except (ValueError, OSError) as exc:
+        raise ValueError(f"{path}: not a plain numpy array file ({exc}).") from None
+    if len(shape) != 2 or shape[1] != 6 or dtype.kind != "f":
+        raise ValueError(
+            f"{path}: expected a DeepRacer route array of shape (N, 6) float "
+            f"[cx, cy, inner_x, inner_y, outer_x, outer_y], got shape {shape} dtype {dtype}."
+        )
+    if shape[0] > MAX_TRACK_VERTICES:
+        raise ValueError(f"{path}: the header claims {shape[0]} rows; a route may have at most "
+                         f"{MAX_TRACK_VERTICES} (h2h_racing.track.MAX_TRACK_VERTICES).")
+    if shape[0] * 6 * dtype.itemsize > data_bytes:
+        raise ValueError(f"{path}: the header claims {shape[0]} rows of 6 {dtype} values "
+                         f"({shape[0] * 6 * dtype.itemsize} bytes), but the file holds {data_bytes} "
+                         "bytes of data: it is truncated or not a route file.")
 
 
 def _read_csv(path: Path) -> Track:

@@ -90,6 +90,7 @@ import numpy.typing as npt
 
 from h2h_racing.config import EnvConfig
 from h2h_racing.deepracer.params import ParamsBuilder
+from h2h_racing.json_files import read_json_file
 from h2h_racing.track import Track
 
 if TYPE_CHECKING:
@@ -575,12 +576,12 @@ def _metadata(config: EnvConfig, source: str | Path | dict[str, Any] | None) -> 
     if isinstance(source, dict):
         return source
     if source is not None:
-        path = Path(source)
-        try:
-            return json.loads(path.read_text())
-        except (OSError, json.JSONDecodeError) as exc:
-            raise ValueError(f"cannot read model metadata {str(path)!r} ({exc}); pass a "
-                             f"model_metadata.json file or None") from exc
+        data = read_json_file(Path(source), "model metadata (pass a model_metadata.json file "
+                                             "or None)")
+        if not isinstance(data, dict):
+            raise ValueError(f"{source}: model metadata must be a JSON object, got "
+                             f"{type(data).__name__}")
+        return data
     if config.action_type == "discrete":
         space: Any = [{"steering_angle": float(s), "speed": float(v), "index": i}
                       for i, (s, v) in enumerate(config.discrete_actions)]

@@ -16,7 +16,6 @@ the model was trained on: a ``lidar_config`` is ignored with a warning that name
 
 from __future__ import annotations
 
-import json
 import math
 import warnings
 from pathlib import Path
@@ -26,6 +25,7 @@ import numpy as np
 import numpy.typing as npt
 
 from h2h_racing.config import CameraConfig, LidarConfig
+from h2h_racing.json_files import read_json_file, short_repr
 
 FloatArrayLike = npt.NDArray[np.float64]
 
@@ -46,14 +46,21 @@ _FIXED_LIDAR = {
 
 
 def _fail(path: Path, key: str, expected: str, got: Any) -> ValueError:
-    return ValueError(f"{path}: {key} must be {expected}, got {got!r}; fix model_metadata.json "
+    return ValueError(f"{path}: {key} must be {expected}, got {short_repr(got)}; fix "
+                      f"model_metadata.json "
                       f"(see DeepRacer's schema in h2h_racing.deepracer.metadata)")
 
 
 def _number(path: Path, key: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise _fail(path, key, "a finite number", value)
-    return float(value)
+    try:
+        number = float(value)  # an int of 400 digits overflows a float
+    except OverflowError:
+        number = math.inf
+    if not math.isfinite(number):
+        raise _fail(path, key, "a finite number", value)
+    return number
 
 
 def _clip(path: Path, key: str, value: float, low: float, high: float) -> float:
@@ -82,11 +89,7 @@ def load_model_metadata(path: str | Path) -> dict[str, Any]:
         ValueError: Unreadable JSON or a bad key, naming the file and the key.
     """
     path = Path(path)
-    try:
-        data = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise ValueError(f"{path}: cannot read model metadata ({exc}); expected a JSON object "
-                         f"with an 'action_space'") from exc
+    data = read_json_file(path, "model metadata (a JSON object with an 'action_space')")
     if not isinstance(data, dict):
         raise _fail(path, "the file", "a JSON object", type(data).__name__)
     if "action_space" not in data:
@@ -200,7 +203,7 @@ def _ignore_lidar_config(path: Path, config: Any, lidar: str | None) -> None:
         raise _fail(path, "'lidar_config'", "an object {num_sectors, num_values_per_sector, "
                     "clipping_dist}", config)
     if config:
-        warnings.warn(f"{path}: lidar_config {config} is ignored (keys {sorted(config)}): "
+        warnings.warn(f"{path}: lidar_config {short_repr(config)} is ignored (keys {short_repr(sorted(config))}): "
                       f"DeepRacer reads it only for DISCRETIZED_SECTOR_LIDAR, which h2h-racing "
                       f"does not implement, and {_FIXED_LIDAR[lidar]}, as in DeepRacer",
                       UserWarning, stacklevel=4)

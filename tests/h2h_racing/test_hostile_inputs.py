@@ -368,3 +368,59 @@ def test_camera_values_of_all_cars_are_bounded() -> None:
                                          r".*16 \* 4096 \* 4096 \* 2 \* 32 = 17179869184"):
         EnvConfig(num_cars=16, sensors=("camera",), camera=camera)
     EnvConfig(num_cars=16, sensors=("camera",), camera=CameraConfig(frame_stack=32))
+
+
+# ---------------------------------------------------------------- odd JSON and .npy files (issue 38)
+
+_ACTIONS = '{"action_space": [{"steering_angle": 0, "speed": 1}]}'
+
+
+@pytest.mark.parametrize(("content", "message"), [
+    # Before: a RecursionError traceback.
+    (b"[" * 100_000 + b"]" * 100_000, r"nested deeper than 32 levels"),
+    ('{"action_space": ' + "[" * 40 + "]" * 40 + "}", r"nested deeper than 32 levels"),
+    # Before: UnicodeDecodeError without the file.
+    (_ACTIONS.encode("utf-16"), r"must be UTF-8 text \(JSON\), but byte 0 is b'\\xff'"),
+    (bytes(range(256)), r"must be UTF-8 text \(JSON\), but byte 128"),
+    # Before: int() 's digit limit, without the file.
+    ('{"action_space": [{"steering_angle": 0, "speed": ' + "1" * 5000 + "}]}",
+     r"holds a number too long to read"),
+    # Before: OverflowError from math.isfinite.
+    ('{"action_space": [{"steering_angle": 0, "speed": ' + "1" * 400 + "}]}",
+     r"action_space\[0\]\.speed must be a finite number, got <an integer of about 400 digits>"),
+])
+def test_model_metadata_errors_name_the_file(tmp_path, content, message: str) -> None:
+    from h2h_racing.deepracer import load_model_metadata
+
+    path = tmp_path / "model_metadata.json"
+    path.write_bytes(content.encode() if isinstance(content, str) else content)
+    with pytest.raises(ValueError, match=message) as info:
+        load_model_metadata(path)
+    assert str(info.value).startswith(f"{path}: ")
+    assert len(str(info.value)) < 400
+
+
+@pytest.mark.parametrize("content", ["x".encode("utf-16"), b"[" * 100_000])
+def test_track_json_errors_name_the_file(tmp_path, content: bytes) -> None:
+    path = tmp_path / "odd.json"
+    path.write_bytes(content)
+    with pytest.raises(ValueError, match=rf"^{path}: .*(UTF-8|nested deeper)"):
+        load_track(path)
+
+
+def _npy_header_only(path, shape) -> None:
+    with path.open("wb") as f:
+        np.lib.format.write_array_header_1_0(f, {"descr": "<f8", "fortran_order": False, "shape": shape})
+
+
+def test_npy_header_claiming_huge_shape(tmp_path) -> None:
+    # Before: numpy tried to allocate 4.8 TB and raised its own MemoryError traceback.
+    path = tmp_path / "huge.npy"
+    _npy_header_only(path, (10**11, 6))
+    with pytest.raises(ValueError, match=r"huge\.npy: the header claims 100000000000 rows; a route may "
+                                         r"have at most 100000"):
+        load_track(path)
+    _npy_header_only(path, (1000, 6))
+    with pytest.raises(ValueError, match=r"huge\.npy: the header claims 1000 rows .* but the file holds 0 "
+                                         r"bytes of data"):
+        load_track(path)
