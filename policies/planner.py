@@ -42,6 +42,7 @@ from h2h_racing.policies import planner_kernel as kernel
 from h2h_racing.policies.obstacles import avoid_obstacles
 from h2h_racing.policies.racing_line import (GRAVITY, compute_race_line, line_curvature,
                                              speed_profile)
+from h2h_racing.policies.registry import Setting
 from h2h_racing.policies.steering import lookahead, pursuit_steer, to_action
 from h2h_racing.track import Track
 
@@ -49,13 +50,30 @@ FloatArray = npt.NDArray[np.float64]
 
 SHIFTS = (-0.45, -0.3, -0.15, 0.15, 0.3, 0.45)
 """Sideways shifts of the racing line that make lanes [m] (clipped to the track, smoothed)."""
+RUNUP_AFTER = 1.5
+"""Time stuck behind a car after which the driver drops back for a run-up [s]."""
+RUNUP_TIME = 1.5
+"""How long a run-up holds the larger gap [s]."""
+ACCEL_FACTOR = 1.0
+"""Share of the car's acceleration used in the speed profiles (the car's own limit)."""
+YAW_DAMPING = 0.05
+"""Counter-steer per rad/s of yaw rate above the path's [s] (0 left the track 4 times as often
+in races; 0.2 and 0.35 twice as often as 0.05)."""
+FOLLOW_COST = 0.2
+"""Cost of a candidate that must slow behind a car, on top of its time [s]: following gives
+up the pace margin that a free line keeps."""
+SWITCH_COST = 0.05
+"""Cost of leaving the path being tracked for another lane [s] (against dithering)."""
+SWITCH_CURVATURE = 0.3
+"""Largest centre-line curvature over a transition to another lane [1/m] (radius 3.3 m): lane
+changes in bends at the planner's grip left the track; passes are set up before the bend."""
 BOX_REANCHOR = 0.8
 """``kernel.REANCHOR`` while the car steers round a box [m]."""
 PREDICT_STEPS = 30
 """Steps of ``kernel.PREDICT_DT`` over which other cars are predicted (3 s)."""
 PACE_TIME = 1.0
 """Time over which another car's pace ratio is smoothed [s]."""
-HOLD_GRIP = float(__import__("os").environ.get("HOLD_GRIP", "0.8"))
+HOLD_GRIP = 0.8
 """Share of the driver's grip used when holding an offset beside a car (parallel to the
 centre line, whose bends are less smooth than the lanes')."""
 LANE_GRIP = 0.9
@@ -144,48 +162,57 @@ class Planner:
     """A racing driver: plans passes, defends once per corner, tracks at its grip.
 
     Args:
-        grip_factor: Share of ``mu g`` used in corners: the driver's pace.
+        grip_factor: Share of ``mu g`` used in corners: the driver's pace (``racing_line``
+            uses 0.6; at 0.8 the car no longer holds every shipped track alone).
         brake_factor: Share of the car's braking used in the speed profiles.
-        accel_factor: Share of the car's acceleration used in the speed profiles.
         margin: Distance kept by the lanes from each border [m].
         cover_gap: Distance behind within which an attacker makes it defend [m].
         lateral_margin: Gap kept beside a predicted car, beyond the two half-widths [m].
         long_margin: Gap kept behind a predicted car, beyond the two half-lengths [m].
-        yaw_damping: Counter-steer per rad/s of yaw rate above the path's [s].
+        follow_gap: Bumper gap held behind a car it follows [m].
+        follow_time: Extra follow gap per m/s of its own speed [s].
+        runup_gap: Extra follow gap of a run-up, after ``RUNUP_AFTER`` seconds stuck behind
+            a car [m] (0: none).
+
+    Raises:
+        ValueError: A setting out of its range (``SETTINGS``), in one line.
     """
 
     name = "planner"
+    SETTINGS = {  # what a spec may set (h2h_racing.policies.registry); its pace: grip_factor
+        "grip_factor": Setting(0.3, 1.0, "fraction of mu g used in corners (its pace)"),
+        "brake_factor": Setting(0.2, 1.0, "fraction of the car's braking in the profiles"),
+        "margin": Setting(0.05, 0.3, "distance kept by the lanes from each border [m]"),
+        "cover_gap": Setting(0.0, 5.0, "distance behind within which it defends [m]"),
+        "lateral_margin": Setting(0.0, 0.5, "gap kept beside a car, beyond the widths [m]"),
+        "long_margin": Setting(0.0, 1.0, "gap kept behind a car, beyond the lengths [m]"),
+        "follow_gap": Setting(0.0, 2.0, "bumper gap held behind a car it follows [m]"),
+        "follow_time": Setting(0.0, 1.0, "extra follow gap per m/s [s]"),
+        "runup_gap": Setting(0.0, 5.0, "extra gap of a run-up behind a car it is stuck behind [m]"),
+    }
 
     def __init__(self, grip_factor: float = 0.75, brake_factor: float = 0.8,
-                 accel_factor: float = 1.0, margin: float = 0.12, cover_gap: float = 1.5,
-                 lateral_margin: float = 0.1, long_margin: float = 0.15,
-                 yaw_damping: float = 0.05, follow_cost: float = 0.2,
-                 switch_cost: float = 0.05, switch_curvature: float = 0.3,
-                 follow_gap: float = 0.25, follow_time: float = 0.15) -> None:
-        for key, value, low, high in (("grip_factor", grip_factor, 0.3, 1.0),
-                                      ("brake_factor", brake_factor, 0.2, 1.0),
-                                      ("accel_factor", accel_factor, 0.2, 1.0),
-                                      ("margin", margin, 0.05, 0.3),
-                                      ("cover_gap", cover_gap, 0.0, 5.0),
-                                      ("lateral_margin", lateral_margin, 0.0, 0.5),
-                                      ("long_margin", long_margin, 0.0, 1.0),
-                                      ("yaw_damping", yaw_damping, 0.0, 0.5)):
-            if not (isinstance(value, (int, float)) and low <= value <= high):
-                raise ValueError(f"planner: {key} must be a number in [{low}, {high}], "
-                                 f"got {value!r}")
+                 margin: float = 0.12, cover_gap: float = 1.5, lateral_margin: float = 0.1,
+                 long_margin: float = 0.15, follow_gap: float = 0.15, follow_time: float = 0.03,
+                 runup_gap: float = 2.0) -> None:
+        given = {"grip_factor": grip_factor, "brake_factor": brake_factor, "margin": margin,
+                 "cover_gap": cover_gap, "lateral_margin": lateral_margin,
+                 "long_margin": long_margin, "follow_gap": follow_gap,
+                 "follow_time": follow_time, "runup_gap": runup_gap}
+        for key, value in given.items():
+            setting = self.SETTINGS[key]
+            if not (isinstance(value, (int, float)) and not isinstance(value, bool)
+                    and setting.low <= value <= setting.high):
+                raise ValueError(f"planner: {key} must be {setting.allowed()}, got {value!r}")
         self.grip_factor = float(grip_factor)
         self.brake_factor = float(brake_factor)
-        self.accel_factor = float(accel_factor)
         self.margin = float(margin)
         self.cover_gap = float(cover_gap)
         self.lateral_margin = float(lateral_margin)
         self.long_margin = float(long_margin)
-        self.yaw_damping = float(yaw_damping)
-        self.follow_cost = float(follow_cost)
-        self.switch_cost = float(switch_cost)
-        self.switch_curvature = float(switch_curvature)
         self.follow_gap = float(follow_gap)
         self.follow_time = float(follow_time)
+        self.runup_gap = float(runup_gap)
         self.lanes: Lanes | None = None
         self._track: Track | None = None
         self._plan = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0), np.zeros(0),
@@ -194,16 +221,18 @@ class Planner:
         self._covered = np.zeros(0, dtype=np.int64)
         self._ratio = np.ones((0, 0))
         self._reanchor = np.zeros(0)
+        self._stuck = np.zeros(0)
+        self._runup_left = np.zeros(0)
 
     def reset(self, core: RaceCore) -> None:
         """Build (or fetch) the lanes of ``core.track`` and clear every copy's plan."""
         if self.lanes is None or self._track is not core.track:
-            key = (self.grip_factor, self.brake_factor, self.accel_factor, self.margin,
+            key = (self.grip_factor, self.brake_factor, ACCEL_FACTOR, self.margin,
                    core.config.max_speed, *core.config.car.__dict__.values())
             per_track = _CACHE.setdefault(core.track, {})
             if key not in per_track:
                 per_track[key] = Lanes(core.track, core.config.car, core.config.max_speed,
-                                       self.grip_factor, self.accel_factor, self.brake_factor,
+                                       self.grip_factor, ACCEL_FACTOR, self.brake_factor,
                                        self.margin)
             self.lanes = per_track[key]
             self._track = core.track
@@ -214,12 +243,14 @@ class Planner:
         self._covered = np.full(e, -1, dtype=np.int64)
         self._ratio = np.ones((e, core.num_cars))
         self._reanchor = np.full(e, kernel.REANCHOR)
+        self._stuck = np.zeros(e)
+        self._runup_left = np.zeros(e)
 
     def _params(self, core: RaceCore) -> FloatArray:
         car = core.config.car
         params = np.zeros(kernel.NUM_PARAMS)
         params[kernel.P_A_LAT] = self.grip_factor * car.friction * GRAVITY
-        params[kernel.P_A_ACC] = self.accel_factor * car.max_accel
+        params[kernel.P_A_ACC] = ACCEL_FACTOR * car.max_accel
         params[kernel.P_A_BRK] = self.brake_factor * car.max_brake
         params[kernel.P_EDGE] = self.margin - 0.04
         params[kernel.P_HALF_LEN] = 0.5 * car.length
@@ -227,7 +258,7 @@ class Planner:
         params[kernel.P_LONG_MARGIN] = self.long_margin
         params[kernel.P_LAT_MARGIN] = self.lateral_margin
         params[kernel.P_CLOSING_MARGIN] = 0.2
-        params[kernel.P_SWITCH_COST] = self.switch_cost
+        params[kernel.P_SWITCH_COST] = SWITCH_COST
         params[kernel.P_DEV_COST] = 0.02
         params[kernel.P_GAIN] = car.speed_gain
         params[kernel.P_DT] = core.dt
@@ -235,8 +266,8 @@ class Planner:
         params[kernel.P_FOLLOW_TIME] = self.follow_time
         params[kernel.P_FOLLOW_GAIN] = 1.5
         params[kernel.P_V_MAX] = core.config.max_speed
-        params[kernel.P_FOLLOW_COST] = self.follow_cost
-        params[kernel.P_SWITCH_CURVATURE] = self.switch_curvature
+        params[kernel.P_FOLLOW_COST] = FOLLOW_COST
+        params[kernel.P_SWITCH_CURVATURE] = SWITCH_CURVATURE
         params[kernel.P_A_LANE] = HOLD_GRIP * params[kernel.P_A_LAT]
         return params
 
@@ -272,9 +303,10 @@ class Planner:
         kernel.plan(s, d, slope, v, lanes.offset, lanes.speed, lanes.curvature, lanes.centre,
                     lanes.inv_ds, lanes.length, transitions, horizon, 30, *objects[:3], traj,
                     *objects[3:], bonus,
-                    *self._plan, self._params(core), self._reanchor, look, choice, d_look,
-                    v_cmd, self.report)
+                    *self._plan, self._params(core), self._reanchor, self._runup(core),
+                    look, choice, d_look, v_cmd, self.report)
         self.choice = choice
+        self._stuck = np.where(choice < 0, self._stuck + core.dt, 0.0)
         planned = d_look
         d_look, v_cmd = avoid_obstacles(core, car, s + look, d_look, v_cmd)
         # Round a box the car leaves its path on purpose: keep the path to come back to.
@@ -282,12 +314,23 @@ class Planner:
                                   kernel.REANCHOR)
         target = track.point_at(s + look, d_look)
         steer = pursuit_steer(core, car, target)
-        if self.yaw_damping:
-            # The pursuit arc's curvature (2 sin(alpha) / l_d) times speed is the yaw rate
-            # the path asks for; counter-steer any excess.
-            wanted = v * np.tan(steer) / core.config.car.wheelbase
-            steer = steer - self.yaw_damping * (core.yaw_rate[:, car] - wanted)
+        # The pursuit arc's curvature times speed is the yaw rate the path asks for
+        # (kinematic: r = v tan(delta) / L); counter-steer any excess, which near the grip
+        # limit is the start of a spin.
+        wanted = v * np.tan(steer) / core.config.car.wheelbase
+        steer = steer - YAW_DAMPING * (core.yaw_rate[:, car] - wanted)
         return to_action(core, steer, v_cmd)
+
+    def _runup(self, core: RaceCore) -> FloatArray:
+        """Extra follow gap (E,) [m]: after ``RUNUP_AFTER`` seconds stuck behind a car
+        (following, no candidate free), drop back to ``runup_gap`` for ``RUNUP_TIME`` seconds,
+        then close again with speed. A car that covers whoever is close behind it (``blocker``)
+        goes back to its line, and the next approach comes with the pace to pass before it
+        moves across."""
+        start = (self._stuck > RUNUP_AFTER) & (self._runup_left <= 0.0)
+        self._runup_left = np.where(start, RUNUP_TIME, self._runup_left - core.dt)
+        self._stuck = np.where(start, 0.0, self._stuck)
+        return np.where(self._runup_left > 0.0, self.runup_gap, 0.0)
 
     def _pace(self, core: RaceCore, car: int, lanes: Lanes) -> tuple[FloatArray, FloatArray]:
         """Top speed and pace ratio of each object slot (E, N + B) for ``kernel.predict``.

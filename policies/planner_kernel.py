@@ -38,6 +38,8 @@ from numba import njit
 
 PREDICT_DT = 0.1
 """Time step of the other cars' predicted travel [s]."""
+BESIDE = 1.0
+"""Arc gap within which another car counts as beside the car: the hold lane is looked at [m]."""
 SIDE_COST = 1.0
 """Cost of a candidate that closes in on a car beside it [s] (it is taken only when every
 other one does too)."""
@@ -87,10 +89,10 @@ def _blend(u):  # pragma: no cover
 
 
 @njit(cache=True)
-def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, transitions, horizon, samples,
-         obj_gap, obj_lo, obj_hi, traj, obj_v, obj_dd, obj_half_len, obj_half_wid, obj_valid,
-         lane_bonus, plan_lane, plan_start, plan_error, plan_slope, plan_length, plan_hold,
-         params, reanchor, look, choice, d_look, v_cmd, report):  # pragma: no cover
+def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, transitions,
+         horizon, samples, obj_gap, obj_lo, obj_hi, traj, obj_v, obj_dd, obj_half_len,
+         obj_half_wid, obj_valid, lane_bonus, plan_lane, plan_start, plan_error, plan_slope,
+         plan_length, plan_hold, params, reanchor, gap_extra, look, choice, d_look, v_cmd, report):  # pragma: no cover
     """Choose a manoeuvre per env copy and return its look-ahead offset and speed command.
 
     Args:
@@ -122,6 +124,8 @@ def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, tra
         reanchor: (E,) distance from the tracked path beyond which the car starts a new one
             from where it is [m] (``REANCHOR``; larger while the driver steers round a box,
             which takes the car off its path on purpose).
+        gap_extra: (E,) gap added to the follow gap [m] (a run-up: the driver drops back
+            behind a car it has been stuck behind, to come at it again with speed).
         look: (E,) look-ahead distance of the steering target [m].
         choice: Out (E,): chosen lane, or -1 when following (the tracked path is kept and
             the speed capped behind the car ahead).
@@ -174,9 +178,12 @@ def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, tra
         # Alone (nothing near within the horizon, no defence) the racing line is the plan:
         # other lanes only look faster over a horizon that ends before their next corner.
         busy = False
+        beside = False
         for o in range(obj_gap.shape[1]):
             if obj_valid[e, o] and -1.0 < obj_gap[e, o] < horizon[e] + 1.0:
                 busy = True
+            if obj_valid[e, o] and abs(obj_gap[e, o]) < BESIDE:
+                beside = True
         for lane in range(hold_lane):
             if lane_bonus[e, lane] != 0.0:
                 busy = True
@@ -205,9 +212,14 @@ def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, tra
                     lane_v, lane_k, centre, inv_ds, length, horizon[e], obj_gap, obj_lo,
                     obj_hi, traj, obj_dd, obj_half_len, obj_half_wid, obj_valid, params,
                     work)
-                if lane != stay and stay >= 0 and lane != hold_lane and _bend(centre, s0[e], trans, inv_ds,
-                                                        length) > params[P_SWITCH_CURVATURE]:
-                    continue  # no change of lane in a bend: set passes up before it
+                if lane == hold_lane and not beside:
+                    continue  # a hold is for staying beside a car
+                # No change to another lane in a bend (set passes up before it); back to the
+                # racing line or a hold is allowed.
+                if (lane != stay and stay >= 0 and lane != hold_lane and lane != 0
+                        and _bend(centre, s0[e], trans, inv_ds, length)
+                        > params[P_SWITCH_CURVATURE]):
+                    continue
                 if j < num_trans:
                     report[e, lane, j, 0] = cost
                     report[e, lane, j, 1] = hit
@@ -232,7 +244,8 @@ def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, tra
         choice[e] = -1 if following else lane
         if following:
             v1 = min(v1, _follow_speed(e, d0, v0, obj_gap, obj_lo, obj_hi, obj_v, obj_dd,
-                                       obj_half_len, obj_half_wid, obj_valid, params))
+                                       obj_half_len, obj_half_wid, obj_valid, params,
+                                       gap_extra[e]))
         if lane != stay or stay < 0:
             if lane != plan_lane[e] or stay < 0:
                 lane_here = _table(lane_d, lane, s0[e], inv_ds, length)
@@ -360,6 +373,7 @@ def _run(dpath, vel, times, step, s_start, e, centre, inv_ds, length, obj_gap, o
             back = params[P_HALF_LEN] + obj_half_len[e, o]
             if gap >= front or gap <= -back:
                 continue
+            # Its lateral span: now and extrapolated at its lateral speed.
             moved = obj_dd[e, o] * min(t, LATERAL_PREVIEW)
             lo = min(obj_lo[e, o], obj_lo[e, o] + moved)
             hi = max(obj_hi[e, o], obj_hi[e, o] + moved)
@@ -463,8 +477,8 @@ def _command(v, v_next, step, params):  # pragma: no cover
 
 @njit(cache=True)
 def _follow_speed(e, d0, v0, obj_gap, obj_lo, obj_hi, obj_v, obj_dd, obj_half_len, obj_half_wid,
-                  obj_valid, params):  # pragma: no cover
-    """Speed that holds a gap of ``follow_gap + follow_time v`` to the nearest object ahead
+                  obj_valid, params, extra):  # pragma: no cover
+    """Speed that holds a gap of ``follow_gap + follow_time v + extra`` to the nearest object ahead
     that overlaps the car laterally now or within ``FOLLOW_PREVIEW`` at its lateral speed (a
     large number when there is none) [m/s]."""
     lead_v = 1e9
@@ -484,5 +498,5 @@ def _follow_speed(e, d0, v0, obj_gap, obj_lo, obj_hi, obj_v, obj_dd, obj_half_le
             lead_v = obj_v[e, o]
     if lead_gap > 1e8:
         return 1e9
-    wanted = params[P_FOLLOW_GAP] + params[P_FOLLOW_TIME] * v0[e]
+    wanted = params[P_FOLLOW_GAP] + params[P_FOLLOW_TIME] * v0[e] + extra
     return max(lead_v + params[P_FOLLOW_GAIN] * (lead_gap - wanted), 0.0)
