@@ -37,6 +37,7 @@ import numpy.typing as npt
 
 from h2h_racing import bots, race, spawn
 from h2h_racing.config import EnvConfig
+from h2h_racing.config_checks import check_seed
 from h2h_racing.core_events import StepEvents
 from h2h_racing.core_penalties import CorePenalties
 from h2h_racing.core_spawn import CoreSpawn, check_rolling
@@ -202,7 +203,8 @@ class RaceCore(CoreState, CoreSpawn, CorePenalties):
                 start; above 0 a rolling start, each car moving straight along its heading
                 with that speed commanded (``core_spawn.check_rolling`` checks it).
         """
-        # Checked before anything is rebuilt, so a bad speed leaves the core as it was.
+        # Checked before anything is rebuilt, so a bad seed or speed leaves the core as it was.
+        check_seed(seed)
         check_rolling(rolling, self.config.car.max_speed)
         if seed is not None:
             self.seed(seed)

@@ -38,6 +38,13 @@ class EnvActions:
         n = self._num_cars
         every = len(agents) == n
         if self._continuous:
+            for a in agents:
+                if not _real_numbers(actions[a]):
+                    value = actions[a]
+                    kind = (f"{type(value).__name__} of dtype {value.dtype}"
+                            if hasattr(value, "dtype") else repr(value)[:80])
+                    raise ValueError(f"action of {a} must be 2 numbers [steer, speed] (real: ints or "
+                                     f"floats), got {kind}")
             try:
                 values = np.array([actions[a] for a in agents], dtype=np.float64)
             except (TypeError, ValueError) as exc:
@@ -82,6 +89,24 @@ class EnvActions:
         steer[0, idx] = steer_values
         speed[0, idx] = speed_values
         return steer, speed
+
+
+_REAL_KINDS = frozenset("iuf")
+_REAL_TYPES = (int, float, np.integer, np.floating)
+
+
+def _real_numbers(value: Any) -> bool:
+    """Whether ``value`` holds real numbers only: an int or float array (not masked), or a
+    list or tuple of ints and floats. Strings, bools, complex numbers, dates and masked arrays
+    are not actions, though numpy converts most of them to floats without a word."""
+    if isinstance(value, np.ndarray):
+        return value.dtype.kind in _REAL_KINDS and not isinstance(value, np.ma.MaskedArray)
+    if isinstance(value, (list, tuple)):
+        return all(isinstance(v, _REAL_TYPES) and not isinstance(v, (bool, np.bool_)) for v in value)
+    try:  # a torch tensor, another array type, or a number (refused for its shape later)
+        return np.asarray(value).dtype.kind in _REAL_KINDS and not isinstance(value, (bool, np.bool_))
+    except (TypeError, ValueError):
+        return False
 
 
 @njit(cache=True)

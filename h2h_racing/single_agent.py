@@ -35,6 +35,7 @@ import gymnasium
 import numpy as np
 import numpy.typing as npt
 
+from h2h_racing.config_checks import check_seed
 from h2h_racing.env import RacingEnv
 from h2h_racing.track import Track
 
@@ -105,6 +106,7 @@ class SingleAgentRaceEnv(gymnasium.Env):
         Returns:
             ``(observation, info)`` of the learner.
         """
+        check_seed(seed)
         super().reset(seed=seed)
         obs, infos = self.race.reset(seed=seed, options=options)
         if seed is not None:

@@ -416,6 +416,26 @@ class TestInputValidation:
         with pytest.raises(ValueError, match=r"\(2,\)|2 numbers"):
             env.step({"car_0": np.zeros(2), "car_1": bad})
 
+    @pytest.mark.parametrize("bad", [
+        np.array(["0.5", "1"]), ["0.5", "1"], np.array([0.5 + 0j, 1]),
+        np.array(["2020-01-01", "2020-01-02"], dtype="datetime64[D]"),
+        np.ma.masked_array([0.1, 0.2], mask=[True, False]), np.array([True, False]), [True, 0.5]])
+    def test_non_real_dtypes_are_refused(self, make_env: Any, bad: Any) -> None:
+        # Before (issue 38): numpy turned each of these into floats without a word (a masked
+        # value's hidden data, a complex number's real part, a date's day count).
+        env = make_env()
+        env.reset(seed=0)
+        with pytest.raises(ValueError, match=r"action of car_1 must be 2 numbers \[steer, speed\] \(real"):
+            env.step({"car_0": np.zeros(2), "car_1": bad})
+
+    @pytest.mark.parametrize("bad", [-1, True, [1, 2], 1.5, "3", np.bool_(True)])
+    def test_bad_seed_is_refused(self, make_env: Any, bad: Any) -> None:
+        # Before (issue 38): numpy's own message for -1, and True or [1, 2] were accepted.
+        env = make_env()
+        with pytest.raises(ValueError, match=r"reset\(seed=\.\.\.\) must be None or an int >= 0, got "):
+            env.reset(seed=bad)
+        env.reset(seed=np.int64(3))
+
     @pytest.mark.parametrize("bad", [15, -1, 2.5, math.nan, True, np.bool_(False), [1],
                                      np.array([1, 2]), None])
     def test_discrete_bad_index(self, make_env: Any, bad: Any) -> None:
