@@ -92,7 +92,8 @@ def _blend(u):  # pragma: no cover
 def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, transitions,
          horizon, samples, obj_gap, obj_lo, obj_hi, traj, obj_v, obj_dd, obj_half_len,
          obj_half_wid, obj_valid, lane_bonus, plan_lane, plan_start, plan_error, plan_slope,
-         plan_length, plan_hold, params, reanchor, gap_extra, look, choice, d_look, v_cmd, report):  # pragma: no cover
+         plan_length, plan_hold, params, reanchor, gap_extra, look, choice, d_look, v_cmd,
+         report):  # pragma: no cover
     """Choose a manoeuvre per env copy and return its look-ahead offset and speed command.
 
     Args:

@@ -10,7 +10,7 @@ env's continuous action space, ``[steer, speed]`` in ``[-1, 1]``, one row per en
 | ``racing_line`` | :class:`RacingLine` | minimum-curvature line and its speed profile |
 | ``blocker`` | :class:`Blocker` | inner lane; moves across to cover an attacker close behind |
 | ``random`` | :class:`Random` | uniform random actions (fuzzing; it does not finish laps) |
-| ``planner`` | :class:`~h2h_racing.policies.planner.Planner` | plans passes round the cars ahead, defends once per corner (:mod:`h2h_racing.policies.planner`) |
+| ``planner`` | :class:`~h2h_racing.policies.planner.Planner` | plans passes, defends a corner |
 
 The drivers steer by pure pursuit (:mod:`h2h_racing.policies.steering`).
 
