@@ -147,6 +147,7 @@ def _cmd_race(args: argparse.Namespace) -> int:
                           spawn=args.spawn, serve=args.serve, web_port=args.web_port,
                           grpc_port=args.grpc_port, progress=progress,
                           simtrace=args.simtrace, reward_function=args.reward_function,
+                          reward_time_limit=args.reward_time_limit,
                           **overrides)
         print(("\n" if i else "") + result.table, flush=True)
         if result.bots:
@@ -239,6 +240,9 @@ def build_parser() -> argparse.ArgumentParser:
                       help="write DeepRacer simtrace CSV + metrics JSON here (one folder per car)")
     race.add_argument("--reward-function", default=None, metavar="REWARD.py",
                       help="a DeepRacer reward_function file: print each car's total reward")
+    race.add_argument("--reward-time-limit", type=float, default=None, metavar="SECONDS",
+                      help="stop with an error when one call of the reward function runs longer "
+                           "than this (default: no limit)")
     race.add_argument("--model-metadata", default=None, metavar="model_metadata.json",
                       help="race with a DeepRacer action space (as the policy was trained)")
     add_progress_flag(race)

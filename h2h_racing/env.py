@@ -264,6 +264,10 @@ class RacingEnv(EnvActions, EnvRewards, ParallelEnv):
         parked_agents: Keep finished and retired cars in ``env.agents`` as parked agents
             until the race ends (zero reward, actions ignored, terminated or truncated with
             everyone at the end), for trainers that need a fixed set of agents.
+        reward_time_limit: Longest a call of ``reward_function`` may run [s]; past it the
+            step raises ``RewardFunctionError`` (an endless loop no longer hangs the run).
+            None (the default) sets no limit: the timer costs about 3 microseconds a call and
+            needs the main thread (``h2h_racing.deepracer.reward``).
         **overrides: Further ``EnvConfig`` fields.
     """
 
@@ -279,7 +283,7 @@ class RacingEnv(EnvActions, EnvRewards, ParallelEnv):
                  render_mode: str | None = None, config: EnvConfig | None = None,
                  reward_function: str | Path | Callable[[dict[str, Any]], Any] | None = None,
                  info_level: str = "flat", parked_agents: bool = False,
-                 **overrides: Any) -> None:
+                 reward_time_limit: float | None = None, **overrides: Any) -> None:
         # "human" is accepted so that PettingZoo's render_test can read the metadata; this
         # headless build cannot open a window and says so on the first render().
         if render_mode not in (None, "human", *self.metadata["render_modes"]):
@@ -342,7 +346,7 @@ class RacingEnv(EnvActions, EnvRewards, ParallelEnv):
         self._params_by_direction: dict[bool, ParamsBuilder] = {}
         if reward_function is not None:
             self._deepracer = DeepRacerReward(reward_function, config.num_cars,
-                                              self.possible_agents)
+                                              self.possible_agents, time_limit=reward_time_limit)
             self._params = self._params_builder(False)
         self._info = InfoBuilder(config.num_cars, self.track.length,
                                  rewards.weights_of(config.reward), info_level)

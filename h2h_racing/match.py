@@ -81,7 +81,8 @@ def run_race(track: str, drivers: Sequence[str | Any], race_type: str = "head_to
              spawn: bool = False, serve: bool = False, web_port: int = 9090,
              grpc_port: int = 9876, progress: bool = False,
              simtrace: str | Path | None = None,
-             reward_function: str | Path | None = None, **config: Any) -> RaceResult:
+             reward_function: str | Path | None = None,
+             reward_time_limit: float | None = None, **config: Any) -> RaceResult:
     """Race ``drivers`` (one car each) on ``track`` and return the result.
 
     Args:
@@ -108,6 +109,7 @@ def run_race(track: str, drivers: Sequence[str | Any], race_type: str = "head_to
         reward_function: A DeepRacer reward file, called for every car on every step (loaded
             once per car); the result's ``rewards`` holds each car's total, and the simtrace
             its per-step values.
+        reward_time_limit: Longest one call of ``reward_function`` may run [s]; None: no limit.
         **config: Further ``EnvConfig`` fields.
 
     Raises:
@@ -127,7 +129,8 @@ def run_race(track: str, drivers: Sequence[str | Any], race_type: str = "head_to
         rules = dataclasses.replace(rules, laps=laps)
     env = RacingEnv(track=track, num_cars=len(drivers), race_type=race_type, rules=rules,
                     render_mode="rgb_array" if video else None,
-                    reward_function=reward_function, **config)
+                    reward_function=reward_function, reward_time_limit=reward_time_limit,
+                    **config)
     logger = None
     if simtrace is not None:
         from h2h_racing.deepracer.logs import SimtraceWriter

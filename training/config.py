@@ -19,6 +19,7 @@ import numpy as np
 
 from h2h_racing.config import EnvConfig, RaceRules, RewardConfig
 from h2h_racing.config_sensors import HFOV_RANGE_DEG, MAX_FRAME_STACK
+from h2h_racing.deepracer.reward import check_time_limit
 from h2h_racing.policies.registry import parse_driver_spec
 from h2h_racing.training.camera_network import check_camera, cnn_config
 from h2h_racing.training.config_file import read_train_toml
@@ -212,6 +213,11 @@ class TrainConfig:
     reward_function: str | None = None
     """A DeepRacer reward file (``reward_function(params)``) replacing the built-in reward;
     loaded once per learner car and env copy."""
+    reward_time_limit: float | None = None
+    """Longest one call of ``reward_function`` may run [s]: past it training stops with an
+    error naming the file, car and step instead of hanging on an endless loop. None (the
+    default) sets no limit (``h2h_racing.deepracer.reward``: the timer costs about 3
+    microseconds a call)."""
     model_metadata: str | None = None
     """A DeepRacer ``model_metadata.json`` whose action space (discrete list or continuous
     ranges) the cars use; its sensors are not used (``observations`` chooses the inputs)."""
@@ -365,6 +371,7 @@ class TrainConfig:
                 raise ValueError(f"TrainConfig.{name} must be true or false, got "
                                  f"{getattr(self, name)!r}")
         check_device_name(self.device)
+        check_time_limit(self.reward_time_limit)
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "train config") -> TrainConfig:
@@ -529,6 +536,7 @@ class TrainConfig:
                 env_config, num_envs=size, learners=self.learners, opponent=opponent,
                 observations=self.observations, seed=seed, device=device,
                 reward_function=self.reward_function, simtrace=log,
+                reward_time_limit=self.reward_time_limit,
                 simtrace_envs=max(self.simtrace_envs, 1),
                 simtrace_episodes=self.simtrace_episodes, expert=self.imitation.expert(),
                 race_types=self.race.race_types))

@@ -81,7 +81,8 @@ class SimtraceEvaluations:
         self.env = RacingVecEnv(
             env.config, num_envs=trials, learners=env.learners, opponent=opponent,
             observations=env.observation_kind, seed=seed, track=env.track,
-            random_starts=env.random_starts, reward_function=env.reward_function)
+            random_starts=env.random_starts, reward_function=env.reward_function,
+            reward_time_limit=env.reward_time_limit)
         self.recorder = SimtraceWriter(None, env.config, env.track, envs=range(trials),
                                        cars=range(env.learners))
         self.env.simtrace = self.recorder

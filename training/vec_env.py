@@ -171,7 +171,8 @@ class RacingVecEnv(VecEnv):
                  random_starts: bool = True, reward_function: str | None = None,
                  simtrace: str | None = None, simtrace_envs: int = 2,
                  simtrace_episodes: int = 20,
-                 expert: str | Any | None = None, race_types: tuple[str, ...] = ()) -> None:
+                 expert: str | Any | None = None, race_types: tuple[str, ...] = (),
+                 reward_time_limit: float | None = None) -> None:
         n = config.num_cars
         learners = n if learners is None else learners
         if not isinstance(learners, int) or not 1 <= learners <= n:
@@ -228,6 +229,7 @@ class RacingVecEnv(VecEnv):
         self.core.reset(start=self._starts(num_envs))
         self._clear_starts(np.ones(num_envs, dtype=bool))
         self.reward_function = reward_function
+        self.reward_time_limit = reward_time_limit
         self._builders: list[Any] = []
         self._deepracer: list[Any] = []
         if reward_function is not None:
@@ -236,7 +238,8 @@ class RacingVecEnv(VecEnv):
             self._builders = [ParamsBuilder(self.track, config.car, n) for _ in range(num_envs)]
             self._deepracer = [DeepRacerReward(reward_function, learners,
                                                agents=[f"car_{i} of env copy {e}"
-                                                       for i in range(learners)])
+                                                       for i in range(learners)],
+                                               time_limit=reward_time_limit)
                                for e in range(num_envs)]
         self.simtrace = None
         if simtrace is not None:

@@ -11,6 +11,12 @@ number (``int``, ``float`` or a numpy number), so that a string such as ``"1.0"`
 Anything the user's code raises, ``sys.exit()`` included, becomes a ``RewardFunctionError``
 naming the file, the car and the step; only ``KeyboardInterrupt`` (Ctrl-C) passes through.
 
+A call can be given a time limit (``time_limit``, seconds; off by default): a function still
+running when it passes, an endless loop say, is stopped with a ``RewardFunctionError`` naming
+the file, the car and the step, instead of hanging the run. The limit is a ``SIGALRM`` interval
+timer set and cleared around every call (about 3 microseconds a call, so it is off unless asked
+for); it needs the main thread of a Unix process, and Ctrl-C still interrupts the function.
+
 Real reward functions keep module-level state (previous steps, speeds), so each car gets its
 own module instance: the file is executed once per car under a unique module name.
 """
@@ -22,7 +28,9 @@ import itertools
 import math
 import numbers
 import reprlib
+import signal
 import sys
+import threading
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -38,6 +46,30 @@ _module_ids = itertools.count()
 
 class RewardFunctionError(RuntimeError):
     """A reward function raised, or returned something that is not a finite number."""
+
+
+class _TimeLimit(BaseException):
+    """Raised inside a reward function by the ``SIGALRM`` handler when its time is up (a
+    ``BaseException``, so that the function's own ``except Exception`` does not swallow it)."""
+
+
+def _time_up(signum: int, frame: Any) -> None:
+    raise _TimeLimit
+
+
+def check_time_limit(time_limit: Any) -> float | None:
+    """Return ``time_limit`` as a float, or raise ``ValueError`` unless it is None or a number
+    in (0, 3600] seconds, and the caller is the main thread of a process that has ``SIGALRM``."""
+    if time_limit is None:
+        return None
+    if (isinstance(time_limit, bool) or not isinstance(time_limit, (int, float))
+            or not 0 < time_limit <= 3600):
+        raise ValueError(f"reward_time_limit must be None (no limit) or a number of seconds in "
+                         f"(0, 3600], got {time_limit!r}")
+    if not hasattr(signal, "setitimer") or threading.current_thread() is not threading.main_thread():
+        raise ValueError("reward_time_limit needs the main thread of a Unix process (it uses a "
+                         "SIGALRM timer); leave it None here")
+    return float(time_limit)
 
 
 def _load_function(path: Path, car: int) -> Callable[[dict[str, Any]], Any]:
@@ -94,6 +126,7 @@ class DeepRacerReward:
             every car.
         num_cars: Number of cars N.
         agents: Names of the cars for messages; defaults to ``car_0`` ... ``car_{N-1}``.
+        time_limit: Longest a call may run [s], None for no limit (see the module docstring).
 
     Raises:
         FileNotFoundError: The file does not exist.
@@ -103,7 +136,8 @@ class DeepRacerReward:
     """
 
     def __init__(self, source: str | Path | Callable[[dict[str, Any]], Any], num_cars: int,
-                 agents: list[str] | None = None) -> None:
+                 agents: list[str] | None = None, time_limit: float | None = None) -> None:
+        self.time_limit = check_time_limit(time_limit)
         self.agents = agents or [f"car_{i}" for i in range(num_cars)]
         if callable(source):
             self.source = getattr(source, "__qualname__", repr(source))
@@ -126,9 +160,15 @@ class DeepRacerReward:
                 the message names the file, the car, the step and the params.
         """
         try:
-            value = self.functions[car](copy_params(params))
+            if self.time_limit is None:
+                value = self.functions[car](copy_params(params))
+            else:
+                value = self._call_limited(car, copy_params(params))
         except KeyboardInterrupt:
             raise
+        except _TimeLimit:
+            raise self._error(car, params, f"ran past its time limit of {self.time_limit:g} s "
+                                           f"(reward_time_limit)") from None
         except BaseException as exc:  # sys.exit() too: an error, not a silent end of the run
             raise self._error(car, params, f"raised {_describe(exc)}") from exc
         if not isinstance(value, numbers.Real) or isinstance(value, bool):
@@ -148,6 +188,18 @@ class DeepRacerReward:
                           f"accepts rewards in [-{REWARD_LIMIT:g}, {REWARD_LIMIT:g}] (warned "
                           f"once per car)", RuntimeWarning, stacklevel=2)
         return reward
+
+    def _call_limited(self, car: int, params: dict[str, Any]) -> Any:
+        """Call car ``car``'s function with a ``SIGALRM`` timer of ``time_limit`` armed."""
+        previous = signal.signal(signal.SIGALRM, _time_up)
+        try:
+            signal.setitimer(signal.ITIMER_REAL, self.time_limit)
+            try:
+                return self.functions[car](params)
+            finally:
+                signal.setitimer(signal.ITIMER_REAL, 0)
+        finally:
+            signal.signal(signal.SIGALRM, previous)
 
     def _error(self, car: int, params: dict[str, Any], what: str) -> RewardFunctionError:
         return RewardFunctionError(

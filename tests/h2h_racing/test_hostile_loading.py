@@ -384,6 +384,48 @@ class TestHostileRewardFunctions:
             assert reward(0, {"steps": 1.0}) == expected
 
 
+class TestRewardTimeLimit:
+    """An optional time limit per reward call (issue 38): an endless loop is stopped with an
+    error naming the file, the car and the step, instead of hanging the run; Ctrl-C still works."""
+
+    LOOP = "while True:\n    try:\n        pass\n    except Exception:\n        pass\n"
+
+    def test_endless_loop_is_stopped(self, tmp_path: Path) -> None:
+        import signal
+
+        path = tmp_path / "reward.py"
+        path.write_text("def reward_function(params):\n" + textwrap.indent(self.LOOP, "    "))
+        reward = DeepRacerReward(path, 2, time_limit=0.2)
+        with pytest.raises(RewardFunctionError, match=r"reward\.py ran past its time limit of 0\.2 s "
+                                                      r"\(reward_time_limit\) for car_1 at step 7\.0"):
+            reward(1, {"steps": 7.0})
+        # The timer is cleared and the previous handler is back.
+        assert signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)
+        assert signal.getsignal(signal.SIGALRM) is signal.SIG_DFL
+
+    def test_ctrl_c_still_interrupts(self, tmp_path: Path) -> None:
+        reward = _reward(tmp_path, "import os, signal\nos.kill(os.getpid(), signal.SIGINT)\n"
+                         + self.LOOP.replace("except Exception", "except ArithmeticError"))
+        reward.time_limit = 30.0
+        with pytest.raises(KeyboardInterrupt):
+            reward(0, {"steps": 1.0})
+
+    def test_env_and_config(self, tmp_path: Path) -> None:
+        import h2h_racing
+        from h2h_racing.training.config import TrainConfig
+
+        path = tmp_path / "reward.py"
+        path.write_text("def reward_function(params):\n" + textwrap.indent(self.LOOP, "    "))
+        env = h2h_racing.parallel_env(track="oval", num_cars=1, reward_function=str(path),
+                                      reward_time_limit=0.1)
+        env.reset(seed=0)
+        with pytest.raises(RewardFunctionError, match="ran past its time limit of 0.1 s"):
+            env.step({"car_0": [0.0, 0.5]})
+        for bad in (-1, 0, True, "1", 10**6):
+            with pytest.raises(ValueError, match=r"reward_time_limit must be None .* \(0, 3600\]"):
+                TrainConfig(reward_time_limit=bad)
+
+
 class TestMissingExtras:
     """Without torch, trained drivers and ``train`` name the extra to install."""
 
