@@ -266,7 +266,7 @@ class RacingEnv(EnvActions, EnvRewards, ParallelEnv):
             everyone at the end), for trainers that need a fixed set of agents.
         reward_time_limit: Longest a call of ``reward_function`` may run [s]; past it the
             step raises ``RewardFunctionError`` (an endless loop no longer hangs the run).
-            None (the default) sets no limit: the timer costs about 3 microseconds a call and
+            None (the default) sets no limit: the timer costs about 15 microseconds a call and
             needs the main thread (``h2h_racing.deepracer.reward``).
         **overrides: Further ``EnvConfig`` fields.
     """

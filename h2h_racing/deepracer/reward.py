@@ -14,7 +14,7 @@ naming the file, the car and the step; only ``KeyboardInterrupt`` (Ctrl-C) passe
 A call can be given a time limit (``time_limit``, seconds; off by default): a function still
 running when it passes, an endless loop say, is stopped with a ``RewardFunctionError`` naming
 the file, the car and the step, instead of hanging the run. The limit is a ``SIGALRM`` interval
-timer set and cleared around every call (about 3 microseconds a call, so it is off unless asked
+timer set and cleared around every call (about 15 microseconds a call, so it is off unless asked
 for); it needs the main thread of a Unix process, and Ctrl-C still interrupts the function.
 
 Real reward functions keep module-level state (previous steps, speeds), so each car gets its
