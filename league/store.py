@@ -38,7 +38,7 @@ import math
 import re
 import sqlite3
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -192,6 +192,20 @@ class LeagueStore:
     def meta(self) -> dict[str, str]:
         """The ``meta`` table as a dict."""
         return {row["key"]: row["value"] for row in self._db.execute("SELECT * FROM meta")}
+
+    def update_meta(self, key: str, update: Callable[[str | None], str | None]) -> None:
+        """Read ``meta[key]`` and write ``update(value)`` in one write transaction.
+
+        ``BEGIN IMMEDIATE`` takes the file's write lock before the read, so two processes
+        checking and claiming one key (a tournament's settings) take turns: the second reads
+        what the first wrote. ``update`` gets None when the key is missing, returns the new
+        value or None to leave it, and may raise to refuse (nothing is written).
+        """
+        with self.transaction() as db:
+            row = db.execute("SELECT value FROM meta WHERE key = ?", (key,)).fetchone()
+            value = update(None if row is None else row["value"])
+            if value is not None:
+                db.execute("INSERT OR REPLACE INTO meta VALUES (?, ?)", (key, value))
 
     def set_meta(self, key: str, value: str) -> None:
         """Set one ``meta`` entry."""

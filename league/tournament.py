@@ -186,38 +186,43 @@ def check_settings(config: TournamentConfig, store: LeagueStore) -> None:
     """
     key = f"{config.context}:settings"
     new = tournament_settings(config)
-    stored_text = store.meta().get(key)
-    if stored_text is None:
-        stored_races = (store.count_matches(context=config.context)
-                        + store.count_matches(context=config.context, status="failed"))
-        if stored_races:
+
+    def decide(stored_text: str | None) -> str | None:
+        # Runs inside one write transaction (LeagueStore.update_meta): two runs of one name
+        # started together take turns, and the second checks what the first stored.
+        if stored_text is None:
+            stored_races = (store.count_matches(context=config.context)
+                            + store.count_matches(context=config.context, status="failed"))
+            if stored_races:
+                raise ValueError(
+                    f"{store.path} holds {stored_races} races of tournament {config.name!r} "
+                    f"stored without their settings (by an older h2h-racing), so they cannot be "
+                    f"checked against laps={config.laps}, seed={config.seed}; give another "
+                    f"--name or --league file")
+            return json.dumps(new, sort_keys=True)
+        stored = json.loads(stored_text)
+        old_leaves = _leaves({k: v for k, v in stored.items() if k != "tracks"})
+        new_leaves = _leaves({k: v for k, v in new.items() if k != "tracks"})
+        changed = [f"{name}: stored {json.dumps(old_leaves.get(name))}, now "
+                   f"{json.dumps(new_leaves.get(name))}"
+                   for name in sorted(old_leaves.keys() | new_leaves.keys())
+                   if old_leaves.get(name) != new_leaves.get(name)]
+        changed += [f"track {track!r}: its geometry changed (fingerprint stored "
+                    f"{stored['tracks'][track]}, now {fingerprint})"
+                    for track, fingerprint in new["tracks"].items()
+                    if stored.get("tracks", {}).get(track, fingerprint) != fingerprint]
+        if changed:
             raise ValueError(
-                f"{store.path} holds {stored_races} races of tournament {config.name!r} stored "
-                f"without their settings (by an older h2h-racing), so they cannot be checked "
-                f"against laps={config.laps}, seed={config.seed}; give another --name or "
-                f"--league file")
-        store.set_meta(key, json.dumps(new, sort_keys=True))
-        return
-    stored = json.loads(stored_text)
-    old_leaves = _leaves({k: v for k, v in stored.items() if k != "tracks"})
-    new_leaves = _leaves({k: v for k, v in new.items() if k != "tracks"})
-    changed = [f"{name}: stored {json.dumps(old_leaves.get(name))}, now "
-               f"{json.dumps(new_leaves.get(name))}"
-               for name in sorted(old_leaves.keys() | new_leaves.keys())
-               if old_leaves.get(name) != new_leaves.get(name)]
-    changed += [f"track {track!r}: its geometry changed (fingerprint stored "
-                f"{stored['tracks'][track]}, now {fingerprint})"
-                for track, fingerprint in new["tracks"].items()
-                if stored.get("tracks", {}).get(track, fingerprint) != fingerprint]
-    if changed:
-        raise ValueError(
-            f"tournament {config.name!r} in {store.path} was played with other settings ("
-            + "; ".join(changed) + "); its stored races would be reported as these. Give "
-            "another --name (or --league file) for these settings, or the stored ones to "
-            "resume it")
-    if set(new["tracks"]) - set(stored["tracks"]):
-        stored["tracks"] = {**stored["tracks"], **new["tracks"]}
-        store.set_meta(key, json.dumps(stored, sort_keys=True))
+                f"tournament {config.name!r} in {store.path} was played with other settings ("
+                + "; ".join(changed) + "); its stored races would be reported as these. Give "
+                "another --name (or --league file) for these settings, or the stored ones to "
+                "resume it")
+        if set(new["tracks"]) - set(stored["tracks"]):
+            stored["tracks"] = {**stored["tracks"], **new["tracks"]}
+            return json.dumps(stored, sort_keys=True)
+        return None
+
+    store.update_meta(key, decide)
 
 
 def _leaves(settings: dict[str, Any], prefix: str = "") -> dict[str, Any]:

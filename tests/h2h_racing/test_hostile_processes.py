@@ -506,3 +506,79 @@ def test_a_corrupt_league_file_gives_one_clear_line(tmp_path, capsys, content, c
     assert err.startswith(f"h2h-racing: error: {league}") and err.count("\n") == 1, err
     assert "not a league file" in err or "is damaged" in err
     assert "races run" not in out
+
+
+# ---------------------------------------------------------------- issue 38: concurrent writers
+
+# Runs the CLI in a fresh process; PATCH (Python code) first widens a window by a sleep, so
+# that two processes started together are both inside it.
+_CLI = """
+import sys, time
+{patch}
+from h2h_racing.cli import main
+sys.exit(main({argv!r}))
+"""
+SLOW_COUNT = """
+from h2h_racing.league.store import LeagueStore
+_count = LeagueStore.count_matches
+def _slow(self, *args, **kwargs):
+    value = _count(self, *args, **kwargs)
+    time.sleep(1.0)  # between reading the settings and storing them
+    return value
+LeagueStore.count_matches = _slow
+"""
+
+
+def _start_cli(argv: list[str], tmp_path: Path, patch: str = "") -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-c", _CLI.format(patch=patch, argv=argv)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=_python_env(), cwd=tmp_path)
+
+
+def _together(argvs: list[list[str]], tmp_path: Path, patch: str = "") -> list[tuple[int, str, str]]:
+    procs = [_start_cli(argv, tmp_path, patch) for argv in argvs]
+    return [(p.wait(timeout=300), p.stdout.read(), p.stderr.read()) for p in procs]
+
+
+def _check_one_settings_won(league: Path, results: list[tuple[int, str, str]], flag: str) -> None:
+    import json
+
+    from h2h_racing.league.store import LeagueStore
+
+    codes = sorted(code for code, _, _ in results)
+    assert codes == [0, 2], results
+    loser = next(err for code, _, err in results if code == 2)
+    assert "was played with other settings" in loser and f"{flag.removeprefix('--')}: stored" in loser
+    with LeagueStore(league) as store:
+        settings = json.loads(store.meta()["tournament:default:settings"])
+        matches = store.matches(context="tournament:default")
+    # The stored settings are those the stored races were played with.
+    from h2h_racing.league.tournament import _race_start, _track_length
+
+    assert matches and {m.laps for m in matches} == {settings["laps"]}
+    start = _race_start(settings["seed"], "oval", 0, _track_length("oval"))
+    assert {m.start for m in matches} == {start}
+
+
+@pytest.mark.parametrize(("flag", "values"), [("--laps", ("1", "2")), ("--seed", ("0", "5"))])
+def test_two_tournaments_of_one_name_started_together(tmp_path, flag, values):
+    """Before: both passed the settings check (read, then write in a second step) in 3 of 5
+    trials; with the window widened by a sleep, in every trial."""
+    league = tmp_path / "league.sqlite"
+    from h2h_racing.league.store import LeagueStore
+
+    LeagueStore(league).close()  # the file exists: this is about the settings, not the file
+    results = _together([_tournament(league, flag, v) for v in values], tmp_path, SLOW_COUNT)
+    _check_one_settings_won(league, results, flag)
+
+
+@pytest.mark.slow
+def test_two_tournaments_of_one_name_started_together_unpatched(tmp_path):
+    """The same without the widened window, repeated to hit it (3 of 5 trials did before)."""
+    from h2h_racing.league.store import LeagueStore
+
+    for trial in range(5):
+        league = tmp_path / f"league{trial}.sqlite"
+        LeagueStore(league).close()
+        results = _together([_tournament(league, "--laps", v) for v in ("1", "2")], tmp_path)
+        _check_one_settings_won(league, results, "--laps")
