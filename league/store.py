@@ -35,7 +35,9 @@ the players in :mod:`h2h_racing.league.players`.
 from __future__ import annotations
 
 import math
+import os
 import re
+import secrets
 import sqlite3
 import time
 from collections.abc import Callable, Iterator
@@ -141,8 +143,10 @@ class LeagueStore:
 
     def __init__(self, path: str | Path, name: str | None = None) -> None:
         self.path = Path(path)
-        check_not_empty(self.path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
+        if not self.path.exists():
+            _create_league_file(self.path, name or self.path.stem)
+        check_not_empty(self.path)
         # isolation_level=None: we issue BEGIN/COMMIT ourselves, so every write is exactly
         # one transaction. timeout: wait for another process's write lock instead of failing.
         try:
@@ -393,6 +397,40 @@ class LeagueStore:
             history.setdefault(row["player"], []).append(
                 (float(row["training_steps"]), row["rating"], low, high))
         return history
+
+
+def _create_league_file(path: Path, name: str) -> None:
+    """Create a new league file at ``path`` whole, or leave the one another process made.
+
+    SQLite creates a 0-byte file at ``connect`` and writes the schema later, and a 0-byte
+    league file is refused (``check_not_empty``): a second process opening the path in between
+    was told to delete a file the first was writing. The schema is written to a file of its
+    own beside ``path``, closed, and hard-linked to ``path`` (atomic, and refused when ``path``
+    exists): the path holds nothing or a whole league file. Of two processes creating one
+    league at once, the second's link fails and it opens the first's file.
+    """
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.new")
+    try:
+        db = sqlite3.connect(tmp, isolation_level=None)
+    except sqlite3.Error as err:
+        raise LeagueStoreError(f"cannot create the league file {path} (SQLite says: {err}); "
+                               f"give a file path in a writable folder") from None
+    try:
+        try:
+            check_league_file(db, tmp)
+            db.execute("PRAGMA journal_mode = WAL")
+            db.execute("BEGIN IMMEDIATE")
+            create_schema(db, name)
+            db.execute("COMMIT")
+        finally:
+            db.close()  # the last connection: SQLite folds the -wal file into the database
+        try:
+            os.link(tmp, path)
+        except FileExistsError:
+            pass  # another process created the league first: open its file
+    finally:
+        for leftover in (tmp, tmp.with_name(tmp.name + "-wal"), tmp.with_name(tmp.name + "-shm")):
+            leftover.unlink(missing_ok=True)
 
 
 def canonical_key(key: str) -> tuple[tuple[tuple[int, int | str], ...], str]:

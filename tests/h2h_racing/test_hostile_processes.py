@@ -582,3 +582,31 @@ def test_two_tournaments_of_one_name_started_together_unpatched(tmp_path):
         LeagueStore(league).close()
         results = _together([_tournament(league, "--laps", v) for v in ("1", "2")], tmp_path)
         _check_one_settings_won(league, results, "--laps")
+
+
+SLOW_CREATE = """
+import h2h_racing.league.store as _store
+_check = _store.check_league_file
+def _slow(db, path):
+    _check(db, path)
+    print("window", flush=True)  # the file is open and its schema not yet written
+    time.sleep(1.5)
+_store.check_league_file = _slow
+"""
+
+
+def test_two_processes_creating_one_league_file(tmp_path):
+    """Before: the second was told that the file the first was writing "is empty ... delete it"."""
+    from h2h_racing.league.store import LeagueStore
+
+    league = tmp_path / "league.sqlite"
+    argv = _tournament(league)
+    first = _start_cli(argv, tmp_path, SLOW_CREATE)
+    assert first.stdout.readline().strip() == "window"
+    second = _start_cli(argv, tmp_path)
+    results = [(p.wait(timeout=300), p.stdout.read(), p.stderr.read()) for p in (first, second)]
+    assert [code for code, _, _ in results] == [0, 0], results
+    assert all("empty" not in err for _, _, err in results)
+    with LeagueStore(league) as store:
+        assert store.count_matches(context="tournament:default") == 2
+    assert not [p.name for p in tmp_path.iterdir() if p.name.startswith(".league")]  # no leftovers
