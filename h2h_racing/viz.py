@@ -66,7 +66,13 @@ from h2h_racing.render import car_colour
 # check_ports_free.
 from h2h_racing.viz_cars import REWARD_TERMS, TRAJECTORY_PIECE, CarStreams, _box_corners
 from h2h_racing.viz_events import EVENT_KINDS, EVENT_LEVELS, step_event_lines
-from h2h_racing.viz_server import check_ports_free, start_viewer_server, stop_viewer_server
+from h2h_racing.viz_server import (
+    check_ports_free,
+    has_display,
+    start_native_viewer,
+    start_viewer_server,
+    stop_viewer_server,
+)
 
 if TYPE_CHECKING:
     from h2h_racing.core import StepEvents
@@ -126,7 +132,8 @@ class RaceRecorder(CarStreams):
     Args:
         env: The env to follow (a ``RacingEnv``; its ``core`` and ``track`` are read).
         path: Write the recording to this ``.rrd`` file.
-        spawn: Open the native rerun viewer and stream to it (needs a display).
+        spawn: Open the native rerun viewer and stream to it (needs a display; its gRPC
+            server listens on 127.0.0.1:``grpc_port`` only).
         serve: Serve the web viewer on 127.0.0.1 only (``viewer_url``); keep it up with
             :meth:`serve_until` after the race.
         cameras: Log every car's camera image.
@@ -152,6 +159,11 @@ class RaceRecorder(CarStreams):
         if path is None and not spawn and not serve:
             raise ValueError("RaceRecorder needs somewhere to send the recording: give "
                              "path='race.rrd', spawn=True or serve=True")
+        if spawn and serve:
+            raise ValueError("spawn and serve both start a viewer on grpc_port: choose one "
+                             "(--spawn for the native viewer, --serve for the web viewer)")
+        if spawn and not has_display():
+            start_native_viewer(grpc_port, rerun_binary)  # raises the no-display error
         if not isinstance(camera_every, int) or camera_every < 1:
             raise ValueError(f"camera_every must be an int >= 1, got {camera_every!r}")
         if not 1 <= int(jpeg_quality) <= 100:
@@ -196,8 +208,7 @@ class RaceRecorder(CarStreams):
             grpc_url = self._start_server(web_port, grpc_port)
             sinks.append(rr.GrpcSink(grpc_url))
         if spawn:
-            self.rec.spawn(default_blueprint=self.blueprint, connect=False)
-            sinks.append(rr.GrpcSink())
+            sinks.append(rr.GrpcSink(start_native_viewer(grpc_port, rerun_binary)))
         self.rec.set_sinks(*sinks, default_blueprint=self.blueprint)
         self._events: StepEvents | None = None
         self._core_step: Callable[..., Any] | None = None

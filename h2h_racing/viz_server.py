@@ -11,6 +11,7 @@ import os
 import signal
 import socket
 import subprocess
+import sys
 import time
 import urllib.parse
 from collections.abc import Callable
@@ -105,6 +106,50 @@ def start_viewer_server(web_port: int, grpc_port: int, binary: Callable[[], str]
     viewer_url = (f"http://127.0.0.1:{web_port}/?url="
                   f"{urllib.parse.quote(grpc_url, safe='')}")
     return server, grpc_url, viewer_url
+
+
+def has_display() -> bool:
+    """Whether a native window can open: always off Linux; on Linux, ``DISPLAY`` (X11) or
+    ``WAYLAND_DISPLAY`` must be set."""
+    if not sys.platform.startswith("linux"):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def start_native_viewer(grpc_port: int, binary: Callable[[], str]) -> str:
+    """Start rerun's native viewer with its gRPC server on 127.0.0.1 and wait until it listens.
+
+    rerun's own ``spawn`` listens on 0.0.0.0 (every network interface), and without a display
+    it waited for a viewer that never came up. Here the display is checked first and the
+    viewer binds the loopback address only; it is detached (its window stays open after the
+    race).
+
+    Args:
+        grpc_port: Port of the viewer's gRPC server, which the recording streams to.
+        binary: Returns the path of the ``rerun`` binary.
+
+    Returns:
+        The URL to stream to.
+
+    Raises:
+        ValueError: No display, or a bad or taken port.
+        RuntimeError: The viewer exited or did not listen within 20 s (it is stopped).
+    """
+    if not has_display():
+        raise ValueError("--spawn opens rerun's native viewer window, but this machine has no "
+                         "display (DISPLAY and WAYLAND_DISPLAY are unset): use --serve (the web "
+                         "viewer on 127.0.0.1) or --save RACE.rrd")
+    check_ports_free({"grpc_port": grpc_port})
+    command = [binary(), "--bind", "127.0.0.1", "--port", str(grpc_port),
+               "--memory-limit", "75%"]
+    viewer = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                              stdin=subprocess.DEVNULL, start_new_session=True)
+    try:
+        _wait_for_port(grpc_port, viewer, timeout=20.0)
+    except RuntimeError:
+        stop_viewer_server(viewer)
+        raise
+    return f"rerun+http://127.0.0.1:{grpc_port}/proxy"
 
 
 def stop_viewer_server(server: subprocess.Popen | None) -> None:

@@ -610,3 +610,52 @@ def test_two_processes_creating_one_league_file(tmp_path):
     with LeagueStore(league) as store:
         assert store.count_matches(context="tournament:default") == 2
     assert not [p.name for p in tmp_path.iterdir() if p.name.startswith(".league")]  # no leftovers
+
+
+# ---------------------------------------------------------------- issue 38: race --spawn
+
+def _no_display_env() -> dict[str, str]:
+    env = _python_env()
+    env.pop("DISPLAY", None)
+    env.pop("WAYLAND_DISPLAY", None)
+    return env
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="DISPLAY is Linux's")
+def test_race_spawn_without_a_display_fails_at_once(tmp_path):
+    """Before: `race --spawn` with no display hung until killed."""
+    pytest.importorskip("rerun")
+    code = "import sys; from h2h_racing.cli import main; sys.exit(main(['race', '--track', 'oval', '--spawn']))"
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                            env=_no_display_env(), cwd=tmp_path)
+    assert result.returncode == 2, result.stderr
+    assert "no display (DISPLAY and WAYLAND_DISPLAY are unset): use --serve" in result.stderr
+
+
+SPAWN_COMMAND = """
+import os, sys
+os.environ["DISPLAY"] = ":99"
+import h2h_racing, h2h_racing.viz_server as vs
+class FakeViewer:
+    returncode = None
+    def poll(self): return None
+def fake_popen(command, **kwargs):
+    print("COMMAND", command, flush=True)
+    return FakeViewer()
+vs.subprocess.Popen = fake_popen
+vs._wait_for_port = lambda port, process, timeout: None
+from h2h_racing.viz import RaceRecorder
+RaceRecorder(h2h_racing.parallel_env(track="oval"), spawn=True, grpc_port={port})
+"""
+
+
+def test_race_spawn_viewer_listens_on_the_loopback_only(tmp_path):
+    """Before: rerun's spawn started the viewer's server on 0.0.0.0:9876, reachable from the
+    network, against the README's "nothing listens beyond this machine"."""
+    pytest.importorskip("rerun")
+    port = _free_ports(1)[0]
+    result = subprocess.run([sys.executable, "-c", SPAWN_COMMAND.format(port=port)],
+                            capture_output=True, text=True, timeout=60, env=_python_env(), cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    line = next(x for x in result.stdout.splitlines() if x.startswith("COMMAND"))
+    assert f"'--bind', '127.0.0.1', '--port', '{port}'" in line
