@@ -1,0 +1,535 @@
+"""Tests for the ``planner`` driver (:mod:`h2h_racing.policies.planner`) and its compiled
+kernel (:mod:`h2h_racing.policies.planner_kernel`): issue 34's behaviours (passes a slower car
+on a straight, does not hit a car that brakes hard ahead, never leaves the track alone, keeps
+clear of boxes and bots, refuses bad settings), the kernel's maths on hand-worked values, its
+lanes, batching and resets.
+
+The tests read behaviour and the public API (``make_driver("planner")``, ``Planner()``,
+``act``, ``reset``, ``lanes``, ``choice``, ``report``), not tuned numbers: the driver's
+defaults are still being tuned. Tests marked ``xfail(strict=True)`` reproduce a known
+planner bug (the reason says which); they fail loudly (XPASS) once it is fixed, so that the
+mark comes off.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+import pytest
+
+from h2h_racing.config import EnvConfig, RaceRules
+from h2h_racing.core import RaceCore
+from h2h_racing.policies import make_driver, race_core
+from h2h_racing.policies import planner_kernel as kernel
+from h2h_racing.policies.planner import Planner
+from h2h_racing.policies.racing_line import compute_race_line
+from h2h_racing.policies.scripted import DRIVERS, TEACHERS
+from h2h_racing.policies.steering import lookahead, pursuit_steer, to_action
+from h2h_racing.track import Track
+from h2h_racing.track_io import list_tracks, load_track
+from h2h_racing.training.evaluate import evaluate
+
+TRACKS = list_tracks()
+STRAIGHT_TRACKS = ("grand_loop", "speedway")
+"""The shipped tracks with the longest straights (11.2 m and 7.9 m with |kappa| < 0.1 1/m)."""
+GRID_SPACING = EnvConfig().grid_spacing
+"""Distance between consecutive grid slots [m] (0.75 m, DeepRacer's)."""
+XFAIL_OFF_TRACK = {
+    "kidney": "1 of 20 one-lap attempts leaves the track at the default grip_factor 0.75 "
+              "(0.7 is clean on every shipped track)",
+    "technical": "2 of 20 one-lap attempts leave the track: the car slides (both axles at "
+                 "the friction limit, yaw rate stuck at 2.67 rad/s) out of the last S-bend "
+                 "(s = 16.5-20 m) at the default grip_factor 0.75 (0.7 is clean)",
+}
+"""Shipped tracks where the planner leaves the track alone today (planner bugs)."""
+
+
+# ---------------------------------------------------------------------- helpers
+
+
+class LaneCar:
+    """A scripted test car: pure pursuit on a fixed offset from the centre line (one per env
+    copy, or one for all) at ``speed`` until the copy's clock reaches ``brake_at`` [s], then a
+    command of 0 m/s (clipped to the env's ``min_speed``)."""
+
+    name = "lane_car"
+
+    def __init__(self, offset: float | np.ndarray, speed: float,
+                 brake_at: float | np.ndarray = math.inf) -> None:
+        self.offset = np.asarray(offset, dtype=np.float64)
+        self.speed = speed
+        self.brake_at = np.asarray(brake_at, dtype=np.float64)
+
+    def reset(self, core: RaceCore) -> None:
+        pass
+
+    def act(self, core: RaceCore, car: int) -> np.ndarray:
+        s = core.s[:, car]
+        ahead = s + lookahead(core.speed[:, car], 0.35, 0.2, 1.5)
+        target = core.track.point_at(ahead, np.broadcast_to(self.offset, s.shape).copy())
+        speed = np.where(core.time >= self.brake_at, 0.0, self.speed)
+        return to_action(core, pursuit_steer(core, car, target), speed)
+
+
+def longest_straight(track: Track, limit: float = 0.1, ds: float = 0.05) -> tuple[float, float]:
+    """Start [m] and length [m] of the longest stretch of ``track`` (wrapping round the start
+    line) whose centre-line curvature stays below ``limit`` [1/m]."""
+    s = np.arange(0.0, track.length, ds)
+    flat = np.abs(track.curvature_at(s)) < limit
+    count = len(s)
+    best, best_start, run = 0, 0, 0
+    for j in range(2 * count):
+        run = run + 1 if flat[j % count] else 0
+        if min(run, count) > best:
+            best, best_start = min(run, count), j - run + 1
+    return float(s[best_start % count]), best * ds
+
+
+def two_car_core(track: Track, num_envs: int, start: float, rolling: float = 0.0,
+                 **config: object) -> RaceCore:
+    """A reset 2-car core (race rules, one lap) with car 0 in the slot behind: car 1 starts
+    at ``start``, car 0 ``grid_spacing`` (0.75 m) behind it, in every copy. A stopped car is
+    not judged immobilised within the tests' few seconds."""
+    cfg = EnvConfig(track=track.name, num_cars=2, grid="fixed",
+                    rules=RaceRules(laps=1, time_limit=60.0, immobilised_steps=1000), **config)
+    core = RaceCore(cfg, track, num_envs=num_envs)
+    core.reset(seed=0, slots=np.array([1, 0]), start=np.full(num_envs, start), rolling=rolling)
+    return core
+
+
+def step_all(core: RaceCore, drivers: list) -> None:
+    """One step of ``core`` with driver i on car i."""
+    actions = np.stack([d.act(core, car) for car, d in enumerate(drivers)], axis=1)
+    core.step(*core.config.commands(actions))
+
+
+# ---------------------------------------------------------------------- kernel maths
+
+
+class TestKernelMaths:
+    """The kernel's blend, speed profile and prediction on values worked out by hand."""
+
+    def test_blend_hand_values(self) -> None:
+        # H0 = 1 - 10u^3 + 15u^4 - 6u^5, H1 = u - 6u^3 + 8u^4 - 3u^5,
+        # H0'' = -60u + 180u^2 - 120u^3, H1'' = -36u + 96u^2 - 60u^3.
+        # u = 0: (1, 0, 0, 0). u = 1/2: H0 = 1 - 1.25 + 0.9375 - 0.1875 = 0.5; H1 = 0.5 - 0.75
+        # + 0.5 - 0.09375 = 0.15625; H0'' = -30 + 45 - 15 = 0; H1'' = -18 + 24 - 7.5 = -1.5.
+        # u = 1/4: H0 = 1 - 0.15625 + 0.05859375 - 0.005859375 = 0.896484375; H1 = 0.25 -
+        # 0.09375 + 0.03125 - 0.0029296875 = 0.1845703125; H0'' = -15 + 11.25 - 1.875 =
+        # -5.625; H1'' = -9 + 6 - 0.9375 = -3.9375. From u = 1 on: all zero (the lane itself).
+        expected = {0.0: (1.0, 0.0, 0.0, 0.0), 0.5: (0.5, 0.15625, 0.0, -1.5),
+                    0.25: (0.896484375, 0.1845703125, -5.625, -3.9375),
+                    1.0: (0.0, 0.0, 0.0, 0.0), 1.7: (0.0, 0.0, 0.0, 0.0)}
+        for u, values in expected.items():
+            assert kernel._blend(u) == pytest.approx(values, abs=1e-12), u
+
+    def test_blend_matches_position_slope_and_curvature(self) -> None:
+        # At u = 0 the blend starts with the car's error and slope (H0' = 0, H1' = 1); at u = 1
+        # it joins the lane with no error, slope or curvature (all of H0, H1, H0', H1', H0'',
+        # H1'' vanish); the second-derivative columns are the derivatives of the first two.
+        h = 1e-6
+        assert kernel._blend(h)[0] == pytest.approx(1.0, abs=1e-12)       # H0'(0) = 0
+        assert kernel._blend(h)[1] / h == pytest.approx(1.0, abs=1e-9)     # H1'(0) = 1
+        below = kernel._blend(1.0 - h)
+        assert below == pytest.approx((0.0, 0.0, 0.0, 0.0), abs=1e-4)
+        for u in (0.1, 0.3, 0.6, 0.9):
+            lo, mid, hi = kernel._blend(u - 1e-4), kernel._blend(u), kernel._blend(u + 1e-4)
+            for value, second in ((0, 2), (1, 3)):
+                numeric = (hi[value] - 2.0 * mid[value] + lo[value]) / 1e-8
+                assert numeric == pytest.approx(mid[second], abs=1e-5), (u, value)
+            # The smootherstep's symmetry: H0(u) + H0(1 - u) = 1.
+            assert mid[0] + kernel._blend(1.0 - u)[0] == pytest.approx(1.0, abs=1e-12)
+
+    def test_profile_braking_and_acceleration_passes(self) -> None:
+        # Five samples 1 m apart, limits [4, 4, 1, 4, 4] (one slow sample), braking 1.5 and
+        # acceleration 1 m/s^2, the car at 3 m/s. Backward pass: v4 = 4, v3 = min(4,
+        # sqrt(16 + 3)) = 4, v2 = 1, v1 = min(4, sqrt(1 + 3)) = 2, v0 = sqrt(4 + 3) = 2.6458.
+        # The car is 3 - sqrt(7) = 0.3542 m/s too fast for that (returned). Forward pass from
+        # v0 = 3: v1 = min(2, sqrt(9 + 2)) = 2, v2 = 1, v3 = sqrt(1 + 2) = 1.7321,
+        # v4 = sqrt(3 + 2) = 2.2361.
+        v_lim = np.array([4.0, 4.0, 1.0, 4.0, 4.0])
+        vel = np.zeros(5)
+        over = kernel._profile(v_lim, vel, 1.0, 3.0, 1.0, 1.5, 4)
+        assert over == pytest.approx(3.0 - math.sqrt(7.0))
+        np.testing.assert_allclose(vel, [3.0, 2.0, 1.0, math.sqrt(3.0), math.sqrt(5.0)])
+        # A car slower than the braking limit is not too fast: 0 returned, v0 its own speed.
+        assert kernel._profile(v_lim, vel, 1.0, 1.0, 1.0, 1.5, 4) == 0.0
+        np.testing.assert_allclose(vel, [1.0, math.sqrt(3.0), 1.0, math.sqrt(3.0),
+                                         math.sqrt(5.0)])
+
+    def test_predict_on_a_flat_profile(self) -> None:
+        # A flat racing-line profile of 4 m/s on a 20 m lap (200 samples). Object 0: ratio 1,
+        # capped at its own 1.5 m/s: travels 1.5 t. Object 1: 2 m/s, ratio 0.5 of the 4 m/s
+        # profile: 2 t. Object 2: from rest, capped at 2 m/s, accelerating at 1 m/s^2:
+        # 0.5 t^2 until t = 2 s, then 2 + 2 (t - 2) (the trapezoid rule is exact here).
+        steps = 31
+        traj = np.empty((1, 3, steps))
+        kernel.predict(np.array([[0.5, 1.0, 2.0]]), np.array([[1.5, 2.0, 0.0]]),
+                       np.array([[1.5, 4.0, 2.0]]), np.array([[1.0, 0.5, 1.0]]),
+                       np.array([3.0]), np.full((1, 200), 4.0), 10.0, 20.0, 1.0, traj)
+        t = np.arange(steps) * kernel.PREDICT_DT
+        np.testing.assert_allclose(traj[0, 0], 1.5 * t, atol=1e-12)
+        np.testing.assert_allclose(traj[0, 1], 2.0 * t, atol=1e-12)
+        np.testing.assert_allclose(traj[0, 2], np.where(t <= 2.0, 0.5 * t**2, 2.0 + 2.0 * (t - 2.0)),
+                                   atol=1e-12)
+
+    def test_predict_follows_a_scaled_profile(self) -> None:
+        # A profile of 4 m/s over the first half of a 20 m lap and 1 m/s over the second. An
+        # object at 2 m/s, pace ratio 0.5, 0.95 m before the drop (s = 9.05 m; accel 1 m/s^2,
+        # cap 4 m/s): v <- min(v + 0.1, 4, 0.5 profile(s)) holds 2 m/s (0.2 m a step) for 5
+        # steps, to s = 10.05 m, past the drop, where the limit is 0.5 m/s: that step travels
+        # 0.5 (2 + 0.5) 0.1 = 0.125 m, every later one 0.05 m.
+        profile = np.where(np.arange(200) < 100, 4.0, 1.0)[None, :]
+        traj = np.empty((1, 1, 21))
+        kernel.predict(np.array([[9.05]]), np.array([[2.0]]), np.array([[4.0]]),
+                       np.array([[0.5]]), np.array([0.0]), profile, 10.0, 20.0, 1.0, traj)
+        want = np.concatenate([0.2 * np.arange(6), 1.0 + 0.125 + 0.05 * np.arange(15)])
+        np.testing.assert_allclose(traj[0, 0], want, atol=1e-12)
+
+
+# ---------------------------------------------------------------------- lanes
+
+
+class TestLanes:
+    """The lanes: the racing line first, every lane on the track, corners' apexes."""
+
+    @pytest.mark.parametrize("grip", [None, 0.5])
+    def test_lane_zero_is_the_racing_line_at_the_same_grip(self, grip: float | None) -> None:
+        for name in ("oval", "technical"):
+            core = race_core(name, 1)
+            planner = Planner() if grip is None else make_driver(f"planner:grip_factor={grip}")
+            planner.reset(core)
+            lanes = planner.lanes
+            car = core.config.car
+            line = compute_race_line(core.track, car, core.config.max_speed,
+                                     margin=planner.margin, grip_factor=planner.grip_factor)
+            # The path: the racing line's offsets and curvature on the same grid.
+            np.testing.assert_allclose(lanes.offset[0], line.d, atol=1e-12)
+            np.testing.assert_allclose(lanes.curvature[0], line.curvature, atol=1e-12)
+            assert lanes.length == pytest.approx(core.track.length)
+            # Its speed profile at the driver's grip: nowhere above the cornering limit
+            # sqrt(grip mu g / |kappa|), and at it where the lap is slowest (the profile's
+            # passes start from there, whatever the acceleration and braking shares).
+            limit = np.sqrt(planner.grip_factor * car.friction * 9.81
+                            / np.maximum(np.abs(lanes.curvature[0]), 1e-9))
+            assert np.all(lanes.speed[0] <= np.minimum(limit, core.config.max_speed) * (1 + 1e-3))
+            slowest = int(np.argmin(lanes.speed[0]))
+            assert lanes.speed[0, slowest] == pytest.approx(limit[slowest], rel=1e-3)
+        # The grip is the pace: 0.5 of mu g gives a slower profile than 0.9.
+        slow, fast = make_driver("planner:grip_factor=0.5"), make_driver("planner:grip_factor=0.9")
+        core = race_core("oval", 1)
+        slow.reset(core)
+        fast.reset(core)
+        assert np.all(slow.lanes.speed[0] <= fast.lanes.speed[0] + 1e-9)
+        assert slow.lanes.lap_time > fast.lanes.lap_time
+
+    @pytest.mark.parametrize("name", TRACKS)
+    def test_every_lane_keeps_the_margin(self, name: str) -> None:
+        planner = Planner()
+        core = race_core(name, 1)
+        planner.reset(core)
+        lanes = planner.lanes
+        count = lanes.offset.shape[1]
+        s = np.arange(count) / lanes.inv_ds
+        left, right = core.track.half_widths_at(s)
+        assert np.all(lanes.offset <= (left - planner.margin)[None, :] + 1e-9)
+        assert np.all(lanes.offset >= -(right - planner.margin)[None, :] - 1e-9)
+        assert np.all(lanes.speed > 0.0) and np.all(lanes.speed <= core.config.max_speed + 1e-9)
+        assert lanes.offset.shape == lanes.speed.shape == lanes.curvature.shape
+        # Lanes to pass on: wherever the racing line runs within 0.1 m of the centre of a
+        # track at least 1 m wide, there is a lane at least 0.1 m to each side of it.
+        if core.track.min_width >= 1.0:
+            middle = np.abs(lanes.offset[0]) < 0.1
+            assert middle.any()
+            assert np.all(lanes.offset[:, middle].max(axis=0) - lanes.offset[0, middle] >= 0.1)
+            assert np.all(lanes.offset[0, middle] - lanes.offset[:, middle].min(axis=0) >= 0.1)
+
+    @pytest.mark.parametrize("name", ["oval", "technical", "grand_loop"])
+    def test_apexes_are_peaks_with_an_inside_lane(self, name: str) -> None:
+        planner = Planner()
+        planner.reset(race_core(name, 1))
+        lanes = planner.lanes
+        count = lanes.offset.shape[1]
+        # Every corner of these tracks has an apex; each is a peak of the racing line's
+        # |curvature| over +-0.5 m, and its inside lane is the lane most to the inside of the
+        # turn 1 m before it.
+        assert len(lanes.apex_s) >= 2
+        assert np.all((lanes.apex_s >= 0.0) & (lanes.apex_s < lanes.length))
+        kappa = lanes.curvature[0]
+        for apex, inside in zip(lanes.apex_s, lanes.inside_lane):
+            k = round(apex * lanes.inv_ds) % count
+            near = np.arange(k - 5, k + 6) % count
+            assert abs(kappa[k]) >= np.abs(kappa[near]).max() - 1e-12
+            before = round((apex - 1.0) * lanes.inv_ds) % count
+            turn = np.sign(kappa[k])
+            assert turn * lanes.offset[inside, before] == pytest.approx(
+                (turn * lanes.offset[:, before]).max())
+
+    def test_reset_on_a_second_track_switches_lanes(self) -> None:
+        planner = make_driver("planner")
+        oval, technical = race_core("oval", 1), race_core("technical", 1, num_envs=3)
+        planner.reset(oval)
+        first = planner.lanes
+        assert first.length == pytest.approx(oval.track.length)
+        planner.reset(technical)
+        assert planner.lanes is not first
+        assert planner.lanes.length == pytest.approx(technical.track.length)
+        left, _ = technical.track.half_widths_at(np.arange(planner.lanes.offset.shape[1])
+                                                  / planner.lanes.inv_ds)
+        assert np.all(planner.lanes.offset <= left - planner.margin + 1e-9)
+        assert planner.act(technical, 0).shape == (3, 2)
+        # act on the first core without a reset: the lanes follow the core's track (the
+        # same lanes as before, built once per track and settings).
+        assert planner.act(oval, 0).shape == (1, 2)
+        assert planner.lanes is first
+
+
+# ---------------------------------------------------------------------- batching
+
+
+class TestBatched:
+    """One call drives every env copy, and a copy's actions depend on its own state only."""
+
+    def test_copies_alone_drive_as_single_cores(self) -> None:
+        # Three copies from three start points in one core, against one core per start: the
+        # same actions (to the last bits the copies' offsets in one physics space leave) for
+        # a second of driving.
+        track = load_track("kidney")
+        starts = np.array([0.0, 8.0, 17.0])
+        batched = race_core(track, 1, num_envs=3)
+        batched.reset(seed=0, start=starts)
+        singles = []
+        for start in starts:
+            core = race_core(track, 1)
+            core.reset(seed=0, start=np.array([start]))
+            singles.append(core)
+        drivers = [Planner() for _ in range(4)]
+        drivers[0].reset(batched)
+        for driver, core in zip(drivers[1:], singles):
+            driver.reset(core)
+        for _ in range(15):
+            actions = drivers[0].act(batched, 0)
+            alone = np.concatenate([d.act(c, 0) for d, c in zip(drivers[1:], singles)])
+            np.testing.assert_allclose(actions, alone, atol=1e-6)
+            assert drivers[0].choice.tolist() == [int(d.choice[0]) for d in drivers[1:]]
+            batched.step(*batched.config.commands(actions[:, None, :]))
+            for core, action in zip(singles, alone):
+                core.step(*core.config.commands(action[None, None, :]))
+
+    @pytest.mark.xfail(strict=True, reason=(
+        "planner bug: identical copies get different candidate costs and choices. When a "
+        "candidate hits a predicted car, _run returns at the hit sample without writing "
+        "times[] for the later samples, and _candidate's follow branch then reads them for "
+        "every sample: stale values of the previous candidate (another copy's, or np.empty's "
+        "garbage for the first one of a call)"))
+    def test_identical_copies_act_identically(self) -> None:
+        # Pairs of copies with bit-identical states (the same grid at three start points,
+        # planner behind racing_line, standing and rolling starts) on every shipped track:
+        # the planner's actions, choices and candidate report agree within each pair.
+        for name in TRACKS:
+            for rolling in (0.0, 1.5, 3.0):
+                track = load_track(name)
+                core = RaceCore(EnvConfig(track=name, num_cars=2, grid="fixed",
+                                          rules=RaceRules(laps=1)), track, num_envs=6)
+                start = np.repeat([0.0, 0.3 * track.length, 0.6 * track.length], 2)
+                core.reset(seed=0, slots=np.array([1, 0]), start=start, rolling=rolling)
+                assert np.array_equal(core.position[0::2], core.position[1::2])
+                planner = Planner()
+                planner.reset(core)
+                actions = planner.act(core, 0)
+                where = f"{name}, rolling {rolling}"
+                np.testing.assert_array_equal(actions[0::2], actions[1::2], err_msg=where)
+                np.testing.assert_array_equal(planner.choice[0::2], planner.choice[1::2],
+                                              err_msg=where)
+                np.testing.assert_array_equal(planner.report[0::2], planner.report[1::2],
+                                              err_msg=where)
+
+
+# ---------------------------------------------------------------------- racing
+
+
+class TestPassing:
+    """It passes a slower car on a straight, cleanly."""
+
+    @pytest.mark.parametrize("rolling", [
+        0.0,
+        pytest.param(1.2, marks=pytest.mark.xfail(strict=True, reason=(
+            "planner bug: 0.75 m behind a car that already cruises at 1.2 m/s it follows the "
+            "whole 11 m straight of grand_loop and passes only after it (t = 9.3 s, s = 11.2 "
+            "m). kernel.predict has that car accelerate away (its pace ratio starts at 1 and "
+            "is only updated where the racing-line profile is below 0.95 v_max, in corners; "
+            "its cap is max_speed), so the lanes beside it look no faster than holding; the "
+            "choice flips between the hold lane and following every 2-5 steps, and the "
+            "run-up (after RUNUP_AFTER s of choice -1 in a row) never starts"))),
+    ])
+    def test_passes_a_slower_car_on_a_straight(self, rolling: float) -> None:
+        # grand_loop's longest straight (|kappa| < 0.1 1/m over 11 m, 1 m wide). The slow car
+        # (1.2 m/s, a third of the planner's pace there) drives the centre line, 0.25 m left
+        # or 0.25 m right of it, one per copy, starting 0.75 m ahead of the planner at the
+        # straight's start; standing start (both from rest) or rolling at the slow car's
+        # speed (the planner has caught it up and sits behind it).
+        track = load_track("grand_loop")
+        s0, length = longest_straight(track)
+        assert length >= 10.0
+        offsets = np.array([0.0, 0.25, -0.25])
+        core = two_car_core(track, 3, s0 + GRID_SPACING, rolling=rolling)
+        slow = LaneCar(offsets, 1.2)
+        drivers = [make_driver("planner"), slow]
+        for driver in drivers:
+            driver.reset(core)
+        car_length = core.config.car.length
+        passed_at = np.full(3, np.nan)  # metres along the straight where it got past
+        for _ in range(round(4.0 / core.dt)):
+            step_all(core, drivers)
+            ahead = core.distance[:, 0] - core.distance[:, 1] > car_length
+            new = ahead & np.isnan(passed_at)
+            passed_at[new] = np.remainder(core.s[new, 0] - s0, track.length)
+        # After 4 s it is ahead in every copy, having got past on the straight; no contact,
+        # no crash, no off-track for either car; the pass counts as an overtake.
+        assert np.all(core.distance[:, 0] - core.distance[:, 1] > car_length), core.distance
+        assert np.all(passed_at < length), passed_at
+        assert core.collisions.sum() == 0 and core.crashes.sum() == 0
+        assert core.off_tracks.sum() == 0
+        assert np.all(core.overtakes[:, 0] >= 1)
+
+
+class TestBraking:
+    """It does not hit a car that brakes hard ahead."""
+
+    @pytest.mark.parametrize("min_speed", [
+        0.5,
+        pytest.param(0.0, marks=pytest.mark.xfail(strict=True, reason=(
+            "planner bug: it creeps into a car stopped ahead. Following, v1 is 0, but "
+            "_command asks only the deceleration v^2 / (2 step) that stops the car one "
+            "horizon sample (0.1 m) on, and that vanishes with v (at 0.49 m/s, 0.13 m "
+            "behind: a command of 0.30 m/s): the car never comes to rest and closes at "
+            "0.2-0.3 m/s until it touches (grand_loop and speedway, standing start, brake at "
+            "0.5 s; speedway rolling at 2 m/s, brake at 0.5 and 0.75 s)"))),
+    ])
+    def test_does_not_hit_a_car_braking_ahead(self, min_speed: float) -> None:
+        # A car on the centre line at 2.5 m/s brakes as hard as it can (a command of 0 m/s:
+        # 5 m/s^2) at 0.5, 0.75 or 1 s, one time per copy, with the planner behind it on the
+        # longest straight of grand_loop and speedway, from a standing start and a rolling one
+        # at 2 m/s. min_speed = 0.5 (the env's default, DeepRacer's) holds the braking car at
+        # 0.5 m/s; min_speed = 0 lets it stop dead.
+        brake_at = np.array([0.5, 0.75, 1.0])
+        for name in STRAIGHT_TRACKS:
+            track = load_track(name)
+            s0, _ = longest_straight(track)
+            for rolling in (0.0, 2.0):
+                core = two_car_core(track, len(brake_at), s0 + GRID_SPACING, rolling=rolling,
+                                    min_speed=min_speed)
+                drivers = [make_driver("planner"), LaneCar(0.0, 2.5, brake_at)]
+                for driver in drivers:
+                    driver.reset(core)
+                gap_at_brake = np.full(len(brake_at), np.nan)
+                for _ in range(round(5.0 / core.dt)):
+                    step_all(core, drivers)
+                    now = np.isnan(gap_at_brake) & (core.time >= brake_at)
+                    gap_at_brake[now] = (core.distance[:, 1] - core.distance[:, 0])[now]
+                where = f"{name}, rolling {rolling}"
+                # The planner was still behind the car when it braked (else it proves nothing).
+                assert np.all(gap_at_brake > 0.25), (where, gap_at_brake)
+                assert np.all(core.collisions == 0), (where, core.collisions)
+                assert np.all(core.crashes == 0) and np.all(core.off_tracks == 0), where
+
+
+class TestAlone:
+    """It never leaves the track alone on a shipped track."""
+
+    @pytest.mark.parametrize("name", [
+        pytest.param(name, marks=pytest.mark.xfail(strict=True, reason="planner bug: "
+                                                   + XFAIL_OFF_TRACK[name]))
+        if name in XFAIL_OFF_TRACK else name for name in TRACKS])
+    def test_never_leaves_the_track(self, name: str) -> None:
+        # 20 one-lap attempts from start points spread round the lap (evaluate: DeepRacer's
+        # training rules, an off-track ends the attempt), all batched in one core.
+        result = evaluate(make_driver("planner"), name, episodes=20)
+        assert result.off_tracks == 0, result
+        assert result.lap_completion == 1.0, result
+
+
+class TestBoxesAndBots:
+    """It keeps clear of boxes (object_avoidance) and bot cars (head_to_bot)."""
+
+    @staticmethod
+    def race(driver: str, name: str, race_type: str, **config: object) -> RaceCore:
+        """8 one-lap races of ``driver`` alone on ``name``, one per copy, from the start line,
+        each with its own random layout of the boxes or bots (seed 0)."""
+        track = load_track(name)
+        cfg = EnvConfig(track=name, num_cars=1, race_type=race_type,
+                        rules=RaceRules(laps=1, time_limit=60.0), **config)
+        core = RaceCore(cfg, track, num_envs=8)
+        core.reset(seed=0)
+        agent = make_driver(driver)
+        agent.reset(core)
+        while not core.done.all():
+            core.step(*cfg.commands(agent.act(core, 0)[:, None, :]))
+        return core
+
+    @pytest.mark.parametrize("name", ["speedway", "oval"])
+    def test_object_avoidance(self, name: str) -> None:
+        # 6 boxes in random lanes and places per copy. Measured: planner and racing_line both
+        # touch no box in 24 layouts (seeds 0-2) on each of these tracks; so none is allowed.
+        core = self.race("planner", name, "object_avoidance", randomize_obstacles=True)
+        layouts = core.obstacle_s.round(3)
+        assert len({tuple(row) for row in layouts}) > 1  # the copies do differ
+        assert core.finished.all()
+        assert core.crashes.sum() == 0 and core.collisions.sum() == 0
+        assert core.off_tracks.sum() == 0
+
+    @pytest.mark.parametrize("name", ["speedway", "oval"])
+    def test_head_to_bot(self, name: str) -> None:
+        # 3 bots at 0.75 m/s changing lanes at random times, drawn per copy. Measured over 24
+        # races (seeds 0-2): planner 1 crash at fault on speedway, 0 on oval; racing_line 5
+        # and 6. A bot that changes lane into a car beside it can make a crash no driver
+        # avoids, so the bound is 1 in these 8 races (0.125 a lap; obstacle_generalist's
+        # target is 0.29 a lap) and no more than racing_line in the same races.
+        core = self.race("planner", name, "head_to_bot", randomize_bots=True)
+        baseline = self.race("racing_line", name, "head_to_bot", randomize_bots=True)
+        assert core.finished.all()
+        assert core.off_tracks.sum() == 0
+        crashes = int(core.crashes.sum())
+        assert crashes <= 1, core.crashes
+        assert crashes <= baseline.crashes.sum(), (core.crashes, baseline.crashes)
+
+
+# ---------------------------------------------------------------------- settings
+
+
+class TestSettings:
+    """make_driver builds it by name and spec; bad settings are refused in one line."""
+
+    def test_registered(self) -> None:
+        assert DRIVERS["planner"] is Planner and "planner" in TEACHERS
+        driver = make_driver("planner")
+        assert isinstance(driver, Planner) and driver.name == "planner"
+        assert driver.lanes is None  # built at reset, per track
+
+    def test_a_setting_reaches_the_driver(self) -> None:
+        if not getattr(Planner, "SETTINGS", None):
+            pytest.skip("Planner declares no SETTINGS yet")
+        driver = make_driver("planner:grip_factor=0.7")
+        assert driver.grip_factor == 0.7 and driver.name == "planner:grip_factor=0.7"
+        assert "grip_factor" in Planner.SETTINGS
+
+    @pytest.mark.parametrize(("spec", "message"), [
+        ("planner:grip_factor=1.5", "planner: grip_factor must be a number in"),
+        ("planner:grip_factor=fast", "planner: grip_factor must be a number in"),
+        ("planner:grip_factor=0", "planner: grip_factor must be a number in"),
+        ("planner:bogus=1", "planner: unknown setting 'bogus'; its settings are grip_factor"),
+    ])
+    def test_bad_settings_are_refused(self, spec: str, message: str) -> None:
+        if not getattr(Planner, "SETTINGS", None):
+            pytest.skip("Planner declares no SETTINGS yet")
+        with pytest.raises(ValueError, match="^" + re.escape(message)) as info:
+            make_driver(spec)
+        assert "\n" not in str(info.value)
+
+    def test_constructor_refuses_bad_values(self) -> None:
+        for key, value in (("grip_factor", 1.5), ("grip_factor", 0.0), ("margin", -0.1),
+                           ("brake_factor", float("nan"))):
+            with pytest.raises(ValueError, match=f"^planner: {key} must be"):
+                Planner(**{key: value})
