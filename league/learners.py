@@ -1,7 +1,12 @@
 """A learner's round of PPO, run in a worker process (``train_round``), and its saved state:
 ``learners/<name>/latest.pt`` (policy file) and ``runner.pt`` (rsl-rl state), written
 atomically and copied as a whole (``copy_state``) when the league keeps or puts back a main
-agent's best state."""
+agent's best state.
+
+A worker leaves a round's new state in ``learners/<name>/pending/round-<k>/``; the league moves
+it in (``install_pending``) only after the store has recorded the round, and on a restart
+installs a recorded round's pending state and drops an unrecorded one (``discard_pending``):
+a kill at any point trains each recorded round exactly once."""
 
 from __future__ import annotations
 
@@ -87,9 +92,13 @@ def train_round(job: TrainJob) -> dict[str, float]:
     runner.learn(iterations)
     runner.current_learning_iteration += 1  # rsl-rl's learn() reuses the last index (G3)
     seconds = time.perf_counter() - start
-    folder.mkdir(parents=True, exist_ok=True)
-    atomic(lambda p: runner.save(str(p)), folder / "runner.pt")
-    atomic(lambda p: save_policy(runner, config, p), folder / "latest.pt")
+    # The new state goes to pending/round-<k>/: the league installs it (install_pending) once
+    # the store has recorded the round, so a kill in between cannot leave a state trained
+    # twice under one recorded round.
+    pending = pending_folder(folder, job.round)
+    pending.mkdir(parents=True, exist_ok=True)
+    atomic(lambda p: runner.save(str(p)), pending / "runner.pt")
+    atomic(lambda p: save_policy(runner, config, p), pending / "latest.pt")
     _RUNNERS[job.learner] = (job.round, runner)
     steps = iterations * config.num_envs * config.num_steps_per_env
     return {"steps": float(steps), "seconds": seconds}
@@ -113,6 +122,36 @@ def copy_state(source: Path, target: Path) -> None:
     target.mkdir(exist_ok=True)
     for file in _STATE_FILES:
         atomic(lambda p, f=file: shutil.copyfile(source / f, p), target / file)
+
+
+def pending_folder(folder: Path, round_index: int) -> Path:
+    """Where a worker leaves the state of ``round_index`` until the league records the round."""
+    return folder / "pending" / f"round-{round_index}"
+
+
+def install_pending(folder: Path, round_index: int) -> None:
+    """Move the state of ``round_index`` from its pending folder into ``folder`` (each file
+    atomically; what a kill leaves behind is moved on the next call) and remove the folder."""
+    pending = pending_folder(folder, round_index)
+    for file in _STATE_FILES:
+        if (pending / file).is_file():
+            os.replace(pending / file, folder / file)
+    shutil.rmtree(pending, ignore_errors=True)
+
+
+def discard_pending(folder: Path, recorded_round: int) -> None:
+    """Settle the pending states a killed league left in ``folder``: a round the store recorded
+    (``<= recorded_round``) is installed, a later one was never recorded and is dropped (the
+    round is trained again from the recorded state)."""
+    root = folder / "pending"
+    if not root.is_dir():
+        return
+    for pending in sorted(root.glob("round-*"), key=lambda p: int(p.name.removeprefix("round-"))):
+        round_index = int(pending.name.removeprefix("round-"))
+        if round_index <= recorded_round:
+            install_pending(folder, round_index)
+        else:
+            shutil.rmtree(pending, ignore_errors=True)
 
 
 def atomic(write: Any, path: Path) -> None:

@@ -45,7 +45,8 @@ from typing import Any, TextIO
 import numpy as np
 
 from h2h_racing.league.config import LeagueConfig, LearnerSpec
-from h2h_racing.league.learners import TrainJob, copy_state, train_round
+from h2h_racing.league.learners import (TrainJob, atomic, copy_state, discard_pending,
+                                       install_pending, train_round)
 from h2h_racing.league.store import LeagueStore, Player, file_sha256, player_for
 from h2h_racing.league.tournament import PAIR_ORDERS, Job, make_job, run_job
 from h2h_racing.progress import Mode, Progress
@@ -208,6 +209,9 @@ class League:
         pool = self._pool()
         mains = [s.name for s in cfg.learners if s.role == "main"]
         jobs = []
+        for spec in cfg.learners:
+            discard_pending(self._latest(spec.name).parent,
+                            int(self._learner_meta(spec.name, "trained_round", -1)))
         for k, spec in enumerate(cfg.learners):
             if self._learner_meta(spec.name, "trained_round", -1) >= round_index:
                 continue  # trained before a restart
@@ -229,6 +233,9 @@ class League:
                 f"{name}.trained_round": str(round_index),
                 f"{name}.rounds_since_snapshot":
                     str(int(self._learner_meta(name, "rounds_since_snapshot")) + 1)})
+            # Recorded: now the round's state is the learner's (a kill before this line is
+            # settled by discard_pending at the next start).
+            install_pending(self._latest(name).parent, round_index)
         self.timings["train"] = time.perf_counter() - clock
         clock = time.perf_counter()
         self._evaluate(round_index, track)
@@ -369,14 +376,17 @@ class League:
         name = f"{spec.name}_v{count + 1}"
         path = self.folder / "snapshots" / f"{name}.pt"
         path.parent.mkdir(parents=True, exist_ok=True)
-        shutil.copyfile(self._latest(spec.name), path)
+        atomic(lambda p: shutil.copyfile(self._latest(spec.name), p), path)
         steps = int(self._learner_meta(spec.name, "steps"))
+        # The snapshot and its learner's counters in one transaction: a kill between two
+        # writes left the snapshot without the reset counter, and the resumed round froze
+        # the same weights again as main_v2.
         self.store.add_player(Player(name=name, kind="snapshot", role=spec.role,
                                      parent=spec.name, checkpoint=str(path),
                                      checkpoint_sha256=file_sha256(path),
-                                     training_steps=steps))
-        self.store.set_metas({f"{spec.name}.rounds_since_snapshot": "0",
-                              f"{spec.name}.reset": "1" if reset else "0"})
+                                     training_steps=steps),
+                              metas={f"{spec.name}.rounds_since_snapshot": "0",
+                                     f"{spec.name}.reset": "1" if reset else "0"})
 
     def _place(self) -> None:
         """Placement races that are not stored yet: the anchors against each other, and every

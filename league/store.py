@@ -223,8 +223,11 @@ class LeagueStore:
 
     # ------------------------------------------------------------- players
 
-    def add_player(self, player: Player) -> Player:
+    def add_player(self, player: Player, metas: dict[str, str] | None = None) -> Player:
         """Add ``player``; adding the same player again is a no-op.
+
+        ``metas`` are written in the same transaction as the player (a league's snapshot and
+        its learner's counters): a kill leaves both or neither.
 
         Raises:
             ValueError: Unknown kind, unknown parent, or a different player of that name
@@ -254,6 +257,9 @@ class LeagueStore:
                        (player.name, player.kind, player.role, player.checkpoint,
                         player.checkpoint_sha256, player.parent, created,
                         int(player.training_steps)))
+            if metas:
+                db.executemany("INSERT OR REPLACE INTO meta VALUES (?, ?)",
+                               [(str(k), str(v)) for k, v in metas.items()])
         return self.player(player.name)  # type: ignore[return-value]
 
     def player(self, name: str) -> Player | None:
