@@ -307,6 +307,24 @@ class TestBrokenPolicyFiles:
         assert str(empty) in err and "Traceback" not in err
 
 
+class TestPolicyNetworkSize:
+    """A policy file's ``hidden_dims`` are checked before a network is built from them (issue
+    38, item 3: a 94 KB file with ``[60000, 60000]`` made ``race`` use 4 GB and 44 s before
+    refusing it, ``[8] * 100000`` took 66 s and 928 MB)."""
+
+    @pytest.mark.xfail(strict=True, reason="needs the call of h2h_racing.training.limits."
+                       "check_hidden_dims in policies/trained.py::_checked (policies/ is "
+                       "another engineer's area in this session); remove this mark with it")
+    @pytest.mark.parametrize("dims", [[60000, 60000], [8] * 100_000, [0], "128"])
+    def test_hidden_dims_are_bounded(self, tmp_path: Path, dims: object) -> None:
+        payload = torch.load(_state_policy(), weights_only=True)
+        payload["actor_cfg"] = {**payload["actor_cfg"], "hidden_dims": dims}
+        # from_payload builds no network (reset() would): the check must come first.
+        with pytest.raises(ValueError, match=r"crafted\.pt: actor_cfg hidden_dims must be 1 to 8 "
+                                             r"layer sizes, each an int in \[1, 4096\]"):
+            TrainedPolicy.from_payload(payload, "crafted", source="crafted.pt")
+
+
 class TestLeagueNames:
     """League and learner names name folders: plain names only."""
 
