@@ -176,8 +176,10 @@ class TestLearnerStateRoundTrip:
                        seed=0)
         try:
             train_round(job)
+            learners.install_pending(folder, 0)  # as the league does once the round is recorded
             saved = learners._RUNNERS.pop("round_trip")[1]
             train_round(dataclasses.replace(job, round=5))  # not cached: loads runner.pt
+            learners.install_pending(folder, 5)
             resumed = learners._RUNNERS["round_trip"][1]
         finally:
             learners._RUNNERS.pop("round_trip", None)

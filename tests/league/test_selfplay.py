@@ -473,9 +473,11 @@ def test_a_reload_rebuilds_the_learner_from_its_saved_state(tmp_path):
                    reset=False, seed=0)
     try:
         train_round(job)
+        learners.install_pending(folder, 0)  # as the league does once the round is recorded
         first = learners._RUNNERS["kept"][1]
         shutil.copyfile(folder / "runner.pt", tmp_path / "round0.pt")
         train_round(dataclasses.replace(job, round=1))
+        learners.install_pending(folder, 1)
         assert learners._RUNNERS["kept"][1] is first  # continued in memory
         after_two = first.current_learning_iteration
         shutil.copyfile(tmp_path / "round0.pt", folder / "runner.pt")  # as a restore does
