@@ -73,18 +73,19 @@ def read_json_file(path: str | Path, what: str, max_bytes: int = MAX_JSON_BYTES)
                          f"and objects") from None
     except ValueError as exc:  # an integer of more than sys.get_int_max_str_digits() digits
         raise ValueError(f"{path}: {what} holds a number too long to read ({exc})") from None
-    _check_depth(data, path, what)
+    check_depth(data, path, what)
     return data
 
 
-def _check_depth(data: Any, path: Path, what: str) -> None:
-    """Raise ``ValueError`` if ``data`` nests deeper than ``MAX_JSON_DEPTH`` (iteratively)."""
+def check_depth(data: Any, path: str | Path, what: str, max_depth: int = MAX_JSON_DEPTH) -> None:
+    """Raise ``ValueError`` if ``data`` (parsed JSON or TOML) nests lists and dicts deeper than
+    ``max_depth`` (checked iteratively)."""
     stack = [(data, 1)]
     while stack:
         item, depth = stack.pop()
         if isinstance(item, (list, dict)):
-            if depth > MAX_JSON_DEPTH:
-                raise ValueError(f"{path}: {what} is nested deeper than {MAX_JSON_DEPTH} levels of "
+            if depth > max_depth:
+                raise ValueError(f"{path}: {what} is nested deeper than {max_depth} levels of "
                                  f"arrays and objects")
             values = item.values() if isinstance(item, dict) else item
             stack.extend((v, depth + 1) for v in values if isinstance(v, (list, dict)))

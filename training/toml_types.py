@@ -11,11 +11,14 @@ strings is expected is taken as a list of that one name (``tracks = "oval"`` mea
 from __future__ import annotations
 
 import dataclasses
+import os
 import tomllib
 import types
 import typing
 from pathlib import Path
 from typing import Any, Literal
+
+from h2h_racing.json_files import MAX_JSON_DEPTH, check_depth
 
 _NAMES = {int: "an integer", float: "a number", str: "a string", bool: "true or false"}
 _PLURALS = {int: "integers", float: "numbers", str: "strings", bool: "true/false values"}
@@ -180,11 +183,27 @@ def build_tables(cls: type, data: dict[str, Any], source: str, tables: dict[str,
     return values
 
 
+MAX_TOML_BYTES = 2**20
+"""Largest config file read [bytes] (the shipped ones are 1-3 KB)."""
+
+
 def read_toml(path: str | Path) -> dict[str, Any]:
     """The parsed contents of the TOML file at ``path``; invalid TOML raises ``ValueError``
     naming the file."""
     try:
+        size = os.stat(path).st_size
+        if size > MAX_TOML_BYTES:
+            raise ValueError(f"{path}: the file is {size} bytes; a config file may be at most "
+                             f"{MAX_TOML_BYTES} bytes")
         with open(path, "rb") as handle:
-            return tomllib.load(handle)
+            data = tomllib.load(handle)
     except tomllib.TOMLDecodeError as err:
         raise ValueError(f"{path}: not valid TOML: {err}") from None
+    except UnicodeDecodeError as err:
+        raise ValueError(f"{path}: a config file must be UTF-8 text (TOML), but byte {err.start} "
+                         f"is {err.object[err.start:err.start + 1]!r}; save it as UTF-8") from None
+    except RecursionError:
+        raise ValueError(f"{path}: arrays or tables nested too deep to read") from None
+    # What the config code walks and prints is nested a few levels at most.
+    check_depth(data, path, "the config", MAX_JSON_DEPTH)
+    return data

@@ -424,3 +424,32 @@ def test_npy_header_claiming_huge_shape(tmp_path) -> None:
     with pytest.raises(ValueError, match=r"huge\.npy: the header claims 1000 rows .* but the file holds 0 "
                                          r"bytes of data"):
         load_track(path)
+
+
+@pytest.mark.parametrize(("content", "message"), [
+    # Before: a RecursionError traceback, and a UnicodeDecodeError without the file.
+    (b"num_envs = " + b"[" * 5000 + b"]" * 5000 + b"\n", r"nested too deep to read"),
+    (b"num_envs = " + b"[" * 40 + b"]" * 40 + b"\n", r"nested deeper than 32 levels"),
+    ("num_envs = 8\n".encode("utf-16"), r"must be UTF-8 text \(TOML\), but byte 0 is b'\\xff'"),
+])
+@pytest.mark.parametrize("kind", ["train", "league"])
+def test_odd_toml_files_name_the_file(tmp_path, content: bytes, message: str, kind: str) -> None:
+    from h2h_racing.league.config import LeagueConfig
+    from h2h_racing.training.config import TrainConfig
+
+    path = tmp_path / "c.toml"
+    path.write_bytes(content)
+    with pytest.raises(ValueError, match=rf"^{path}: .*{message}"):
+        (TrainConfig if kind == "train" else LeagueConfig).from_toml(path)
+
+
+def test_toml_file_size_is_bounded(tmp_path) -> None:
+    from h2h_racing.training.config import TrainConfig
+    from h2h_racing.training.toml_types import MAX_TOML_BYTES
+
+    path = tmp_path / "big.toml"
+    with path.open("wb") as f:
+        f.truncate(MAX_TOML_BYTES + 1)  # sparse
+    with pytest.raises(ValueError, match=rf"big\.toml: the file is {MAX_TOML_BYTES + 1} bytes; a config "
+                                         rf"file may be at most {MAX_TOML_BYTES} bytes"):
+        TrainConfig.from_toml(path)
