@@ -102,7 +102,7 @@ def _check_no_fold(centre: FloatArray, border: FloatArray, what: str, where: str
 
 
 def _candidate_pairs(a: FloatArray, b: FloatArray) -> Iterator[tuple[IntArray, IntArray]]:
-    """Batches of pairs ``(i, j)``, ``i < j``, of segments ``a[k] -> b[k]`` whose bounding boxes could overlap.
+    """Batches of pairs ``(i, j)``, ``i < j``, of segments ``a[k] -> b[k]`` that may meet.
 
     Uniform-grid bucketing: the segments are cut into pieces no longer than the cell size ``c``, every
     piece is entered in the (2 x 2 at most) cells its bounding box covers, and two segments are a

@@ -203,7 +203,8 @@ def _ignore_lidar_config(path: Path, config: Any, lidar: str | None) -> None:
         raise _fail(path, "'lidar_config'", "an object {num_sectors, num_values_per_sector, "
                     "clipping_dist}", config)
     if config:
-        warnings.warn(f"{path}: lidar_config {short_repr(config)} is ignored (keys {short_repr(sorted(config))}): "
+        warnings.warn(f"{path}: lidar_config {short_repr(config)} is ignored "
+                      f"(keys {short_repr(sorted(config))}): "
                       f"DeepRacer reads it only for DISCRETIZED_SECTOR_LIDAR, which h2h-racing "
                       f"does not implement, and {_FIXED_LIDAR[lidar]}, as in DeepRacer",
                       UserWarning, stacklevel=4)
