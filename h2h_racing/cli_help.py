@@ -19,8 +19,8 @@ EPILOG = """examples:
   h2h-racing league train --config recommended --workers 3
 
 Run 'h2h-racing COMMAND --help' for a command's options."""
-DRIVERS_HELP = ("comma-separated drivers, one per car: scripted (racing_line, pure_pursuit, "
-                "blocker, random), shipped policies (league_racer, ppo_generalist, "
+DRIVERS_HELP = ("comma-separated drivers, one per car: scripted (planner, racing_line, "
+                "pure_pursuit, blocker, random), shipped policies (league_racer, ppo_generalist, "
                 "obstacle_generalist, camera_generalist, camera_racer, camera_speedway, "
                 "racing_line_student) or policy.pt files; a scripted driver takes settings "
                 "after its name, e.g. racing_line:grip_factor=0.7 for its pace ("

@@ -38,6 +38,8 @@ from numba import njit
 
 PREDICT_DT = 0.1
 """Time step of the other cars' predicted travel [s]."""
+RUNUP_SPEED = 0.8
+"""Share of the car ahead's speed a run-up slows to at least."""
 BESIDE = 1.0
 """Arc gap within which another car counts as beside the car: the hold lane is looked at [m]."""
 SIDE_COST = 1.0
@@ -59,8 +61,8 @@ OVER_WEIGHT = 0.5
 # Indices into the kernel's packed parameters (``params``).
 P_A_LAT, P_A_ACC, P_A_BRK, P_EDGE, P_HALF_LEN, P_HALF_WID, P_LONG_MARGIN, P_LAT_MARGIN, \
     P_CLOSING_MARGIN, P_SWITCH_COST, P_DEV_COST, P_GAIN, P_DT, P_FOLLOW_GAP, P_FOLLOW_TIME, \
-    P_FOLLOW_GAIN, P_V_MAX, P_FOLLOW_COST, P_SWITCH_CURVATURE, P_A_LANE = range(20)
-NUM_PARAMS = 20
+    P_FOLLOW_GAIN, P_V_MAX, P_FOLLOW_COST, P_SWITCH_CURVATURE, P_A_LANE, P_SPEED_PREVIEW = range(21)
+NUM_PARAMS = 21
 
 
 @njit(cache=True, inline="always")
@@ -148,7 +150,7 @@ def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, tra
     lane_v[:hold_lane] = base_v
     lane_k[:hold_lane] = base_k
     num_trans = transitions.shape[1]
-    work = np.empty((4, samples + 1))
+    work = np.empty((5, samples + 1))
     report[:] = np.nan
     for e in range(num_env):
         step = horizon[e] / samples
@@ -272,7 +274,7 @@ def _candidate(lane, trans, ref, ref_slope, s_start, v_start, step, samples, e, 
     ``trans`` metres. Returns its cost [s] (time to the horizon, plus the follow cost when it
     must slow behind a car, plus the cost of ending off the racing line), its speed at the
     first sample [m/s], the object it would hit (-1: none), how far it leaves the track [m]
-    and its transition length [m]. ``work`` is scratch space, (4, samples + 1)."""
+    and its transition length [m]. ``work`` is scratch space, (5, samples + 1)."""
     v_lim, vel, dpath, times = work[0], work[1], work[2], work[3]
     lane_start = _table(lane_d, lane, s_start, inv_ds, length)
     e0 = ref - lane_start
@@ -307,20 +309,48 @@ def _candidate(lane, trans, ref, ref_slope, s_start, v_start, step, samples, e, 
                           obj_lo, obj_hi, traj, obj_dd, obj_half_len, obj_half_wid, obj_valid,
                           params, True)
     if hit >= 0:
-        # The same path behind the car it would hit, at that car's predicted speed at most.
+        # First try the same path held to that car's predicted speed only where it overlaps
+        # it sideways: move across behind it, then go (a pass from right behind a car).
+        limit = work[4]
         for i in range(samples + 1):
-            ahead = (_travel(traj, e, hit, times[i] + 0.05)
-                     - _travel(traj, e, hit, times[i])) / 0.05
-            v_lim[i] = min(v_lim[i], ahead)
+            limit[i] = v_lim[i]
+            moved = obj_dd[e, hit] * min(times[i], LATERAL_PREVIEW)
+            lo = min(obj_lo[e, hit], obj_lo[e, hit] + moved)
+            hi = max(obj_hi[e, hit], obj_hi[e, hit] + moved)
+            apart = max(lo - dpath[i], dpath[i] - hi, 0.0)
+            if apart < params[P_HALF_WID] + obj_half_wid[e, hit] + params[P_LAT_MARGIN]:
+                ahead = (_travel(traj, e, hit, times[i] + 0.05)
+                         - _travel(traj, e, hit, times[i])) / 0.05
+                v_lim[i] = min(v_lim[i], ahead)
         _profile(v_lim, vel, step, v_start, params[P_A_ACC], params[P_A_BRK], samples)
-        t, _, _ = _run(dpath, vel, times, step, s_start, e, centre, inv_ds, length, obj_gap,
-                       obj_lo, obj_hi, traj, obj_dd, obj_half_len, obj_half_wid, obj_valid,
-                       params, False)
-        # Slowing down does not mend a path that closes in on a car beside it.
-        t += params[P_FOLLOW_COST] + (SIDE_COST if beside else 0.0)
+        t, again, beside = _run(dpath, vel, times, step, s_start, e, centre, inv_ds, length,
+                                obj_gap, obj_lo, obj_hi, traj, obj_dd, obj_half_len,
+                                obj_half_wid, obj_valid, params, True)
+        if again < 0:
+            hit = -1
+        else:
+            # The same path behind the car it would hit, at that car's predicted speed.
+            for i in range(samples + 1):
+                ahead = (_travel(traj, e, hit, times[i] + 0.05)
+                         - _travel(traj, e, hit, times[i])) / 0.05
+                v_lim[i] = min(limit[i], ahead)
+            _profile(v_lim, vel, step, v_start, params[P_A_ACC], params[P_A_BRK], samples)
+            t, _, _ = _run(dpath, vel, times, step, s_start, e, centre, inv_ds, length,
+                           obj_gap, obj_lo, obj_hi, traj, obj_dd, obj_half_len, obj_half_wid,
+                           obj_valid, params, False)
+            # Slowing down does not mend a path that closes in on a car beside it.
+            t += params[P_FOLLOW_COST] + (SIDE_COST if beside else 0.0)
     line_end = _table(lane_d, 0, s_start + horizon, inv_ds, length)
     t += params[P_DEV_COST] * abs(dpath[samples] - line_end)
-    return t, vel[1], hit, excess, trans
+    # The speed asked for: the lowest of the profile over the next P_SPEED_PREVIEW seconds
+    # (as racing_line's), so that the car is at a bend's speed before the bend rather than
+    # braking into it at the limit, where the tracking has no grip to spare.
+    first = vel[1]
+    for i in range(2, samples + 1):
+        if times[i] > params[P_SPEED_PREVIEW]:
+            break
+        first = min(first, vel[i])
+    return t, first, hit, excess, trans
 
 
 @njit(cache=True, inline="always")
@@ -379,24 +409,49 @@ def _run(dpath, vel, times, step, s_start, e, centre, inv_ds, length, obj_gap, o
             lo = min(obj_lo[e, o], obj_lo[e, o] + moved)
             hi = max(obj_hi[e, o], obj_hi[e, o] + moved)
             apart = max(lo - dpath[i], dpath[i] - hi, 0.0)
-            if apart < params[P_HALF_WID] + obj_half_wid[e, o] + params[P_LAT_MARGIN]:
-                return t, o, gap < back
+            if apart >= params[P_HALF_WID] + obj_half_wid[e, o] + params[P_LAT_MARGIN]:
+                continue
+            # Already too near at the start (right behind it, side by side off the grid, or
+            # after a bump): a path that gets no nearer, across or along, is no conflict, so
+            # that the ways out of it are not all discarded with the ways into it.
+            if i == 0:
+                continue
+            apart0 = max(obj_lo[e, o] - dpath[0], dpath[0] - obj_hi[e, o], 0.0)
+            gap0 = obj_gap[e, o]
+            near0 = (-back < gap0 < front
+                     and apart0 < params[P_HALF_WID] + obj_half_wid[e, o] + params[P_LAT_MARGIN])
+            if near0 and apart >= apart0 - 0.01 and abs(gap) >= abs(gap0) - 0.01:
+                continue
+            _finish_times(dpath, vel, times, step, s_start, centre, inv_ds, length, i, t)
+            return t, o, gap < back
     return t, -1, False
 
 
 @njit(cache=True)
-def predict(obj_gap, obj_speed, obj_cap, obj_ratio, s0, line_v, inv_ds, length, accel,
+def _finish_times(dpath, vel, times, step, s_start, centre, inv_ds, length, i, t):  # pragma: no cover
+    """Write the times of samples ``i + 1`` on (``_run`` stopped at sample ``i``, time ``t``),
+    which a follow variant reads."""
+    for k in range(i + 1, dpath.shape[0]):
+        kc = _table(centre, 0, s_start + (k - 0.5) * step, inv_ds, length)
+        stretch = max(1.0 - kc * 0.5 * (dpath[k] + dpath[k - 1]), 0.2)
+        t += step * stretch / max(0.5 * (vel[k] + vel[k - 1]), 0.05)
+        times[k] = t
+
+
+@njit(cache=True)
+def predict(obj_gap, obj_speed, obj_cap, obj_ratio, s0, line_v, inv_ds, length, obj_accel,
             traj):  # pragma: no cover
     """Predict how far each object travels along the track, every ``PREDICT_DT`` seconds.
 
-    An object drives the planner's racing-line profile scaled by its pace ratio (its speed
-    over the profile's where the profile is below top speed, estimated by the driver),
-    at most ``obj_cap``, accelerating at ``accel`` and braking as the scaled profile does:
-    ``v <- min(v + accel dt, cap, ratio v_line(s))``.
+    An object keeps its current acceleration (as the driver estimates it: a car cruising
+    slowly is not expected to speed away), up to the planner's racing-line profile scaled by
+    its pace ratio (its speed over the profile's where the profile is below top speed,
+    estimated by the driver) and at most ``obj_cap``, and brakes as that scaled profile does:
+    ``v <- max(min(v + a dt, cap, ratio v_line(s)), 0)``.
 
     Args:
-        obj_gap, obj_speed, obj_cap, obj_ratio: (E, J) arc gap ahead of the car [m], speed,
-            top speed [m/s] and pace ratio.
+        obj_gap, obj_speed, obj_cap, obj_ratio, obj_accel: (E, J) arc gap ahead of the car
+            [m], speed, top speed [m/s], pace ratio and acceleration [m/s^2].
         s0: (E,) the car's arc position [m].
         line_v: Racing-line profile, (1, K) [m/s].
         traj: Out (E, J, K + 1): distance travelled [m] at ``k PREDICT_DT``.
@@ -410,7 +465,7 @@ def predict(obj_gap, obj_speed, obj_cap, obj_ratio, s0, line_v, inv_ds, length, 
             for k in range(1, traj.shape[2]):
                 limit = min(obj_cap[e, o],
                             obj_ratio[e, o] * _table(line_v, 0, s + travelled, inv_ds, length))
-                v_next = min(v + accel * PREDICT_DT, limit)
+                v_next = max(min(v + obj_accel[e, o] * PREDICT_DT, limit), 0.0)
                 travelled += 0.5 * (v + v_next) * PREDICT_DT
                 v = v_next
                 traj[e, o, k] = travelled
@@ -473,7 +528,12 @@ def _command(v, v_next, step, params):  # pragma: no cover
     """Speed command that makes the speed controller ``a = gain (v_cmd - v)`` deliver the
     acceleration ``(v_next^2 - v^2) / (2 step)`` of the profile's first step."""
     accel = (v_next * v_next - v * v) / (2.0 * step)
-    return min(max(v + accel / params[P_GAIN], 0.0), params[P_V_MAX])
+    command = v + accel / params[P_GAIN]
+    if v_next < v:
+        # Braking: at least to the speed wanted (the controller's a = gain (v_cmd - v)), or
+        # a car slowing to a stop would creep, its (v_next^2 - v^2) / 2 step vanishing.
+        command = min(command, v_next)
+    return min(max(command, 0.0), params[P_V_MAX])
 
 
 @njit(cache=True)
@@ -500,4 +560,8 @@ def _follow_speed(e, d0, v0, obj_gap, obj_lo, obj_hi, obj_v, obj_dd, obj_half_le
     if lead_gap > 1e8:
         return 1e9
     wanted = params[P_FOLLOW_GAP] + params[P_FOLLOW_TIME] * v0[e] + extra
-    return max(lead_v + params[P_FOLLOW_GAIN] * (lead_gap - wanted), 0.0)
+    speed = max(lead_v + params[P_FOLLOW_GAIN] * (lead_gap - wanted), 0.0)
+    if extra > 0.0 and lead_gap > params[P_FOLLOW_GAP]:
+        # A run-up opens the gap gently, at RUNUP_SPEED of the car ahead's speed.
+        speed = max(speed, RUNUP_SPEED * lead_v)
+    return speed

@@ -19,6 +19,7 @@ import numpy.typing as npt
 
 from h2h_racing.extras import missing_extra
 from h2h_racing.policies.weights import WeightsFileError, check_keys, load_weights
+from h2h_racing.training.limits import check_hidden_dims
 
 if TYPE_CHECKING:
     from h2h_racing.core import RaceCore
@@ -86,6 +87,12 @@ def _checked(payload: Any, source: str) -> dict[str, Any]:
         raise WeightsFileError(f"{source}: actor_cfg's class_name is "
                                f"{payload['actor_cfg'].get('class_name')!r}, expected one of "
                                f"{_ACTOR_CLASSES}")
+    # The network is built from hidden_dims: bound them before anything allocates (a crafted
+    # [60000, 60000] asked for 14 GB).
+    try:
+        check_hidden_dims(payload["actor_cfg"].get("hidden_dims"), f"{source}: actor_cfg")
+    except ValueError as error:
+        raise WeightsFileError(str(error)) from None
     return payload
 
 

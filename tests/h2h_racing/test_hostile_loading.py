@@ -314,9 +314,6 @@ class TestPolicyNetworkSize:
     38, item 3: a 94 KB file with ``[60000, 60000]`` made ``race`` use 4 GB and 44 s before
     refusing it, ``[8] * 100000`` took 66 s and 928 MB)."""
 
-    @pytest.mark.xfail(strict=True, reason="needs the call of h2h_racing.training.limits."
-                       "check_hidden_dims in policies/trained.py::_checked (policies/ is "
-                       "another engineer's area in this session); remove this mark with it")
     @pytest.mark.parametrize("dims", [[60000, 60000], [8] * 100_000, [0], "128"])
     def test_hidden_dims_are_bounded(self, tmp_path: Path, dims: object) -> None:
         payload = torch.load(_state_policy(), weights_only=True)

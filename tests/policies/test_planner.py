@@ -168,12 +168,27 @@ class TestKernelMaths:
         traj = np.empty((1, 3, steps))
         kernel.predict(np.array([[0.5, 1.0, 2.0]]), np.array([[1.5, 2.0, 0.0]]),
                        np.array([[1.5, 4.0, 2.0]]), np.array([[1.0, 0.5, 1.0]]),
-                       np.array([3.0]), np.full((1, 200), 4.0), 10.0, 20.0, 1.0, traj)
+                       np.array([3.0]), np.full((1, 200), 4.0), 10.0, 20.0,
+                       np.ones((1, 3)), traj)
         t = np.arange(steps) * kernel.PREDICT_DT
         np.testing.assert_allclose(traj[0, 0], 1.5 * t, atol=1e-12)
         np.testing.assert_allclose(traj[0, 1], 2.0 * t, atol=1e-12)
         np.testing.assert_allclose(traj[0, 2], np.where(t <= 2.0, 0.5 * t**2, 2.0 + 2.0 * (t - 2.0)),
                                    atol=1e-12)
+
+    def test_predict_keeps_each_cars_acceleration(self) -> None:
+        # On a flat 4 m/s profile, ratio 1, cap 4 m/s: a car cruising at 1.2 m/s (acceleration
+        # 0) keeps 1.2 m/s: 1.2 t. A car at 1 m/s braking at 2 m/s^2 stops after 0.5 s, having
+        # travelled 1 * 0.5 / 2 = 0.25 m (trapezoids of 0.1 s: 0.09, 0.07, 0.05, 0.03, 0.01),
+        # and stays there (speeds never go below 0).
+        traj = np.empty((1, 2, 11))
+        kernel.predict(np.array([[1.0, 2.0]]), np.array([[1.2, 1.0]]), np.full((1, 2), 4.0),
+                       np.ones((1, 2)), np.array([0.0]), np.full((1, 200), 4.0), 10.0, 20.0,
+                       np.array([[0.0, -2.0]]), traj)
+        t = np.arange(11) * kernel.PREDICT_DT
+        np.testing.assert_allclose(traj[0, 0], 1.2 * t, atol=1e-12)
+        braked = np.cumsum([0.0, 0.09, 0.07, 0.05, 0.03, 0.01, 0, 0, 0, 0, 0])
+        np.testing.assert_allclose(traj[0, 1], braked, atol=1e-12)
 
     def test_predict_follows_a_scaled_profile(self) -> None:
         # A profile of 4 m/s over the first half of a 20 m lap and 1 m/s over the second. An
@@ -184,7 +199,8 @@ class TestKernelMaths:
         profile = np.where(np.arange(200) < 100, 4.0, 1.0)[None, :]
         traj = np.empty((1, 1, 21))
         kernel.predict(np.array([[9.05]]), np.array([[2.0]]), np.array([[4.0]]),
-                       np.array([[0.5]]), np.array([0.0]), profile, 10.0, 20.0, 1.0, traj)
+                       np.array([[0.5]]), np.array([0.0]), profile, 10.0, 20.0,
+                       np.ones((1, 1)), traj)
         want = np.concatenate([0.2 * np.arange(6), 1.0 + 0.125 + 0.05 * np.arange(15)])
         np.testing.assert_allclose(traj[0, 0], want, atol=1e-12)
 
@@ -318,12 +334,6 @@ class TestBatched:
             for core, action in zip(singles, alone):
                 core.step(*core.config.commands(action[None, None, :]))
 
-    @pytest.mark.xfail(strict=True, reason=(
-        "planner bug: identical copies get different candidate costs and choices. When a "
-        "candidate hits a predicted car, _run returns at the hit sample without writing "
-        "times[] for the later samples, and _candidate's follow branch then reads them for "
-        "every sample: stale values of the previous candidate (another copy's, or np.empty's "
-        "garbage for the first one of a call)"))
     def test_identical_copies_act_identically(self) -> None:
         # Pairs of copies with bit-identical states (the same grid at three start points,
         # planner behind racing_line, standing and rolling starts) on every shipped track:
@@ -355,14 +365,7 @@ class TestPassing:
 
     @pytest.mark.parametrize("rolling", [
         0.0,
-        pytest.param(1.2, marks=pytest.mark.xfail(strict=True, reason=(
-            "planner bug: 0.75 m behind a car that already cruises at 1.2 m/s it follows the "
-            "whole 11 m straight of grand_loop and passes only after it (t = 9.3 s, s = 11.2 "
-            "m). kernel.predict has that car accelerate away (its pace ratio starts at 1 and "
-            "is only updated where the racing-line profile is below 0.95 v_max, in corners; "
-            "its cap is max_speed), so the lanes beside it look no faster than holding; the "
-            "choice flips between the hold lane and following every 2-5 steps, and the "
-            "run-up (after RUNUP_AFTER s of choice -1 in a row) never starts"))),
+        1.2,
     ])
     def test_passes_a_slower_car_on_a_straight(self, rolling: float) -> None:
         # grand_loop's longest straight (|kappa| < 0.1 1/m over 11 m, 1 m wide). The slow car
@@ -400,13 +403,7 @@ class TestBraking:
 
     @pytest.mark.parametrize("min_speed", [
         0.5,
-        pytest.param(0.0, marks=pytest.mark.xfail(strict=True, reason=(
-            "planner bug: it creeps into a car stopped ahead. Following, v1 is 0, but "
-            "_command asks only the deceleration v^2 / (2 step) that stops the car one "
-            "horizon sample (0.1 m) on, and that vanishes with v (at 0.49 m/s, 0.13 m "
-            "behind: a command of 0.30 m/s): the car never comes to rest and closes at "
-            "0.2-0.3 m/s until it touches (grand_loop and speedway, standing start, brake at "
-            "0.5 s; speedway rolling at 2 m/s, brake at 0.5 and 0.75 s)"))),
+        0.0,
     ])
     def test_does_not_hit_a_car_braking_ahead(self, min_speed: float) -> None:
         # A car on the centre line at 2.5 m/s brakes as hard as it can (a command of 0 m/s:
