@@ -6,9 +6,7 @@ lanes, batching and resets.
 
 The tests read behaviour and the public API (``make_driver("planner")``, ``Planner()``,
 ``act``, ``reset``, ``lanes``, ``choice``, ``report``), not tuned numbers: the driver's
-defaults are still being tuned. Tests marked ``xfail(strict=True)`` reproduce a known
-planner bug (the reason says which); they fail loudly (XPASS) once it is fixed, so that the
-mark comes off.
+defaults were tuned while they were written.
 """
 
 from __future__ import annotations
@@ -36,14 +34,6 @@ STRAIGHT_TRACKS = ("grand_loop", "speedway")
 """The shipped tracks with the longest straights (11.2 m and 7.9 m with |kappa| < 0.1 1/m)."""
 GRID_SPACING = EnvConfig().grid_spacing
 """Distance between consecutive grid slots [m] (0.75 m, DeepRacer's)."""
-XFAIL_OFF_TRACK = {
-    "kidney": "1 of 20 one-lap attempts leaves the track at the default grip_factor 0.75 "
-              "(0.7 is clean on every shipped track)",
-    "technical": "2 of 20 one-lap attempts leave the track: the car slides (both axles at "
-                 "the friction limit, yaw rate stuck at 2.67 rad/s) out of the last S-bend "
-                 "(s = 16.5-20 m) at the default grip_factor 0.75 (0.7 is clean)",
-}
-"""Shipped tracks where the planner leaves the track alone today (planner bugs)."""
 
 
 # ---------------------------------------------------------------------- helpers
@@ -436,10 +426,7 @@ class TestBraking:
 class TestAlone:
     """It never leaves the track alone on a shipped track."""
 
-    @pytest.mark.parametrize("name", [
-        pytest.param(name, marks=pytest.mark.xfail(strict=True, reason="planner bug: "
-                                                   + XFAIL_OFF_TRACK[name]))
-        if name in XFAIL_OFF_TRACK else name for name in TRACKS])
+    @pytest.mark.parametrize("name", TRACKS)
     def test_never_leaves_the_track(self, name: str) -> None:
         # 20 one-lap attempts from start points spread round the lap (evaluate: DeepRacer's
         # training rules, an off-track ends the attempt), all batched in one core.
