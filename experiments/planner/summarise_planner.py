@@ -58,7 +58,8 @@ def summarise(data: dict) -> str:
     front = sum(r["front_league_racer"]["won"] for r in rows)
     lines.append(f"- in front of `league_racer`: won {front} ({100 * front / total:.0f} %)")
     pace = sum(r["pace_0.6_behind_racing_line"]["won"] for r in rows)
-    lines.append(f"- at racing_line's grip (0.6) behind it: won {pace} ({100 * pace / total:.0f} %)")
+    lines.append(f"- at racing_line's grip (0.6) behind it: won {pace} "
+                 f"({100 * pace / total:.0f} %)")
     ratios = [r["alone"]["mean_lap"] / r["alone"]["reference_lap"] for r in rows]
     clean = sum(r["alone"]["laps"] == 1.0 and r["alone"]["off"] == 0 for r in rows)
     lines.append(f"- alone: every attempt lapped clean on {clean} of {len(rows)} tracks; lap "
