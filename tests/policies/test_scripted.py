@@ -50,7 +50,8 @@ class TestHelpers:
         assert isinstance(make_driver("racing_line"), RacingLine)
         assert isinstance(make_driver("blocker", lane="outer"), Blocker)
         assert isinstance(make_driver("random", rng=np.random.default_rng(0)), Random)
-        with pytest.raises(ValueError, match=r"known drivers are \['blocker', 'pure_pursuit'"):
+        with pytest.raises(ValueError,
+                           match=r"known drivers are \['blocker', 'planner', 'pure_pursuit'"):
             make_driver("fast")
 
     def test_random_needs_generator(self) -> None:
