@@ -1,31 +1,35 @@
-"""``planner``: a scripted driver that races: it passes from behind and defends.
+"""``planner``: a scripted driver that races: it plans passes from behind and defends.
 
 A local planner in the spirit of Frenet-frame sampling (Werling et al., ICRA 2010) and TUM's
 graph-based planner (Stahl et al., ITSC 2019), batched over env copies:
 
-* **Lanes** (once per track): the racing line at the driver's grip, the racing line shifted
-  0.15 and 0.3 m to each side, and five lanes at fixed shares of the half-width, each with its
-  curvature and its closed-loop quasi-steady-state speed profile at the driver's grip
-  (:func:`~h2h_racing.policies.racing_line.speed_profile`).
-* **Candidates** (every step, every copy): a blend from the car's offset and heading onto each
-  lane over a short and a long transition (hold the line, pass left, pass right, come back),
-  each with its speed profile over a horizon of a few metres; every other car and bot is
-  predicted along the track at its speed, and a candidate that leaves the track or comes
-  within a car length and width plus margins of a predicted car is discarded. The one that
-  reaches the horizon soonest wins; with none free the car follows the car ahead
-  (:mod:`h2h_racing.policies.planner_kernel`). A pass is thus taken where the car behind
-  has the room and the pace: alongside on the approach, where its grip lets it brake later
-  and carry more speed on the inside, and never through a car that will be there.
+* **Lanes** (once per track, cached): the racing line at the driver's grip, the racing line
+  shifted 0.15, 0.3 and 0.45 m to each side and two lanes at 0.85 of the half-width, each with
+  its curvature and its closed-loop quasi-steady-state speed profile
+  (:func:`~h2h_racing.policies.racing_line.speed_profile`; ``LANE_GRIP`` of the grip off the
+  racing line).
+* **Candidates** (every step, every copy, :mod:`h2h_racing.policies.planner_kernel`): the path
+  being tracked, blends onto each lane over a short and a long transition (hold the line, pass
+  left, pass right, come back) and, beside a car, a hold of its own offset, each with its
+  speed profile over a horizon of a few metres. Every other car and bot is predicted along
+  the track (its acceleration and pace, its lateral speed); a candidate that leaves the track
+  or comes within a car length and width plus margins of a predicted car is not free. The
+  free one that reaches the horizon soonest wins; a blocked one is tried again held to the
+  blocking car's speed where it overlaps it (across behind it, then past); with none free it
+  follows, and after ``RUNUP_AFTER`` seconds stuck it drops back for a run-up. No lane change
+  starts in a bend: a pass is set up on the approach, where its grip lets it brake later.
 * **Defence**: with a car close behind (``cover_gap``) and a corner ahead, it takes the inside
   lane of that corner once, until the apex, then its line again.
-* **Tracking**: pure pursuit on the chosen path with a yaw-rate damper (a car driven near the
+* **Tracking**: pure pursuit on the tracked path with a yaw-rate damper (a car driven near the
   grip limit oversteers when its yaw rate runs ahead of the path's; the damper counter-steers
-  by ``yaw_damping (r - v kappa)``), and a speed command that makes the car's speed controller
-  deliver the profile's acceleration rather than lag it.
+  by ``YAW_DAMPING (r - v tan(delta) / L)``), and a speed command that makes the car's speed
+  controller deliver the profile's acceleration (to its lowest speed over ``SPEED_PREVIEW``)
+  rather than lag it.
 
 ``grip_factor`` sets the pace: the share of ``mu g`` used in corners (``racing_line`` uses
 0.6). Boxes (``object_avoidance``) are kept clear of as by ``racing_line``
-(:func:`~h2h_racing.policies.obstacles.avoid_obstacles`).
+(:func:`~h2h_racing.policies.obstacles.avoid_obstacles`). Measured against issue 34's targets
+in experiments/planner/README.md.
 """
 
 from __future__ import annotations

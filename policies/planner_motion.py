@@ -1,0 +1,160 @@
+"""Motion maths of the planner's kernel (:mod:`h2h_racing.policies.planner_kernel`): the
+packed parameters, table lookups, the quintic blend, speed profiles and the speed command,
+the prediction of other cars along the track, and the speed that follows a car.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+PREDICT_DT = 0.1
+"""Time step of the other cars' predicted travel [s]."""
+RUNUP_SPEED = 0.8
+"""Share of the car ahead's speed a run-up slows to at least."""
+FOLLOW_PREVIEW = 0.6
+"""Time over which a car ahead moving sideways counts as in the way when following [s]."""
+# Indices into the kernel's packed parameters (``params``).
+P_A_LAT, P_A_ACC, P_A_BRK, P_EDGE, P_HALF_LEN, P_HALF_WID, P_LONG_MARGIN, P_LAT_MARGIN, \
+    P_CLOSING_MARGIN, P_SWITCH_COST, P_DEV_COST, P_GAIN, P_DT, P_FOLLOW_GAP, P_FOLLOW_TIME, \
+    P_FOLLOW_GAIN, P_V_MAX, P_FOLLOW_COST, P_SWITCH_CURVATURE, P_A_LANE, P_SPEED_PREVIEW = range(21)
+NUM_PARAMS = 21
+
+
+@njit(cache=True, inline="always")
+def _table(table, row, s, inv_ds, length):  # pragma: no cover
+    """Periodic linear interpolation of ``table[row]`` (K samples over the lap) at ``s``."""
+    s = s - length * math.floor(s / length)
+    u = s * inv_ds
+    k = int(u)
+    count = table.shape[1]
+    f = u - k
+    k = k % count
+    return table[row, k] + f * (table[row, (k + 1) % count] - table[row, k])
+
+
+@njit(cache=True, inline="always")
+def _blend(u):  # pragma: no cover
+    """(H0, H1, H0'', H1'') of the quintic Hermite blend at ``u`` (zero past u = 1)."""
+    if u >= 1.0:
+        return 0.0, 0.0, 0.0, 0.0
+    u2 = u * u
+    u3 = u2 * u
+    return (1.0 - 10.0 * u3 + 15.0 * u2 * u2 - 6.0 * u3 * u2,
+            u - 6.0 * u3 + 8.0 * u2 * u2 - 3.0 * u3 * u2,
+            -60.0 * u + 180.0 * u2 - 120.0 * u3,
+            -36.0 * u + 96.0 * u2 - 60.0 * u3)
+
+
+@njit(cache=True, inline="always")
+def _travel(traj, e, o, t):  # pragma: no cover
+    """Distance object ``o`` of copy ``e`` is predicted to travel in ``t`` seconds [m]
+    (``traj`` holds it every ``PREDICT_DT``; beyond its end at its last speed)."""
+    u = t / PREDICT_DT
+    k = int(u)
+    last = traj.shape[2] - 1
+    if k >= last:
+        return traj[e, o, last] + (traj[e, o, last] - traj[e, o, last - 1]) * (u - last)
+    return traj[e, o, k] + (u - k) * (traj[e, o, k + 1] - traj[e, o, k])
+
+
+@njit(cache=True)
+def predict(obj_gap, obj_speed, obj_cap, obj_ratio, s0, line_v, inv_ds, length, obj_accel,
+            traj):  # pragma: no cover
+    """Predict how far each object travels along the track, every ``PREDICT_DT`` seconds.
+
+    An object keeps its current acceleration (as the driver estimates it: a car cruising
+    slowly is not expected to speed away), up to the planner's racing-line profile scaled by
+    its pace ratio (its speed over the profile's where the profile is below top speed,
+    estimated by the driver) and at most ``obj_cap``, and brakes as that scaled profile does:
+    ``v <- max(min(v + a dt, cap, ratio v_line(s)), 0)``.
+
+    Args:
+        obj_gap, obj_speed, obj_cap, obj_ratio, obj_accel: (E, J) arc gap ahead of the car
+            [m], speed, top speed [m/s], pace ratio and acceleration [m/s^2].
+        s0: (E,) the car's arc position [m].
+        line_v: Racing-line profile, (1, K) [m/s].
+        traj: Out (E, J, K + 1): distance travelled [m] at ``k PREDICT_DT``.
+    """
+    for e in range(obj_gap.shape[0]):
+        for o in range(obj_gap.shape[1]):
+            s = s0[e] + obj_gap[e, o]
+            v = obj_speed[e, o]
+            travelled = 0.0
+            traj[e, o, 0] = 0.0
+            for k in range(1, traj.shape[2]):
+                limit = min(obj_cap[e, o],
+                            obj_ratio[e, o] * _table(line_v, 0, s + travelled, inv_ds, length))
+                v_next = max(min(v + obj_accel[e, o] * PREDICT_DT, limit), 0.0)
+                travelled += 0.5 * (v + v_next) * PREDICT_DT
+                v = v_next
+                traj[e, o, k] = travelled
+
+
+@njit(cache=True, inline="always")
+def _excess(d, s, centre, inv_ds, length, edge):  # pragma: no cover
+    """How far offset ``d`` lies beyond the border less ``edge`` at ``s`` [m] (0 inside)."""
+    left = _table(centre, 1, s, inv_ds, length) - edge
+    right = _table(centre, 2, s, inv_ds, length) - edge
+    return max(d - left, -right - d, 0.0)
+
+
+@njit(cache=True, inline="always")
+def _profile(v_lim, vel, step, v_start, a_acc, a_brk, samples):  # pragma: no cover
+    """Quasi-steady-state speeds over the horizon: braking pass from its end, then an
+    acceleration pass from the car's speed ``v_start`` (written into ``vel``). Returns how
+    far ``v_start`` lies above what the braking pass allows at the car [m/s]: a path the car
+    is too fast for."""
+    vel[samples] = v_lim[samples]
+    for i in range(samples - 1, -1, -1):
+        vel[i] = min(v_lim[i], math.sqrt(vel[i + 1] * vel[i + 1] + 2.0 * a_brk * step))
+    over = max(v_start - vel[0], 0.0)
+    vel[0] = v_start
+    for i in range(samples):
+        vel[i + 1] = min(vel[i + 1], math.sqrt(vel[i] * vel[i] + 2.0 * a_acc * step))
+    return over
+
+
+@njit(cache=True, inline="always")
+def _command(v, v_next, step, params):  # pragma: no cover
+    """Speed command that makes the speed controller ``a = gain (v_cmd - v)`` deliver the
+    acceleration ``(v_next^2 - v^2) / (2 step)`` of the profile's first step."""
+    accel = (v_next * v_next - v * v) / (2.0 * step)
+    command = v + accel / params[P_GAIN]
+    if v_next < v:
+        # Braking: at least to the speed wanted (the controller's a = gain (v_cmd - v)), or
+        # a car slowing to a stop would creep, its (v_next^2 - v^2) / 2 step vanishing.
+        command = min(command, v_next)
+    return min(max(command, 0.0), params[P_V_MAX])
+
+
+@njit(cache=True)
+def _follow_speed(e, d0, v0, obj_gap, obj_lo, obj_hi, obj_v, obj_dd, obj_half_len, obj_half_wid,
+                  obj_valid, params, extra):  # pragma: no cover
+    """Speed that holds a gap of ``follow_gap + follow_time v + extra`` to the nearest object ahead
+    that overlaps the car laterally now or within ``FOLLOW_PREVIEW`` at its lateral speed (a
+    large number when there is none) [m/s]."""
+    lead_v = 1e9
+    lead_gap = 1e9
+    for o in range(obj_gap.shape[1]):
+        if not obj_valid[e, o] or obj_gap[e, o] <= 0.0:
+            continue
+        moved = obj_dd[e, o] * FOLLOW_PREVIEW
+        lo = min(obj_lo[e, o], obj_lo[e, o] + moved)
+        hi = max(obj_hi[e, o], obj_hi[e, o] + moved)
+        apart = max(lo - d0[e], d0[e] - hi, 0.0)
+        if apart > params[P_HALF_WID] + obj_half_wid[e, o] + params[P_LAT_MARGIN]:
+            continue
+        gap = obj_gap[e, o] - params[P_HALF_LEN] - obj_half_len[e, o]
+        if gap < lead_gap:
+            lead_gap = gap
+            lead_v = obj_v[e, o]
+    if lead_gap > 1e8:
+        return 1e9
+    wanted = params[P_FOLLOW_GAP] + params[P_FOLLOW_TIME] * v0[e] + extra
+    speed = max(lead_v + params[P_FOLLOW_GAIN] * (lead_gap - wanted), 0.0)
+    if extra > 0.0 and lead_gap > params[P_FOLLOW_GAP]:
+        # A run-up opens the gap gently, at RUNUP_SPEED of the car ahead's speed.
+        speed = max(speed, RUNUP_SPEED * lead_v)
+    return speed
