@@ -218,19 +218,10 @@ class Planner:
                  "long_margin": long_margin, "follow_gap": follow_gap,
                  "follow_time": follow_time, "runup_gap": runup_gap}
         for key, value in given.items():
-            setting = self.SETTINGS[key]
-            if not (isinstance(value, (int, float)) and not isinstance(value, bool)
-                    and setting.low <= value <= setting.high):
-                raise ValueError(f"planner: {key} must be {setting.allowed()}, got {value!r}")
-        self.grip_factor = float(grip_factor)
-        self.brake_factor = float(brake_factor)
-        self.margin = float(margin)
-        self.cover_gap = float(cover_gap)
-        self.lateral_margin = float(lateral_margin)
-        self.long_margin = float(long_margin)
-        self.follow_gap = float(follow_gap)
-        self.follow_time = float(follow_time)
-        self.runup_gap = float(runup_gap)
+            try:
+                setattr(self, key, self.SETTINGS[key].check(value))
+            except ValueError as allowed:
+                raise ValueError(f"planner: {key} must be {allowed}, got {value!r}") from None
         self.lanes: Lanes | None = None
         self._track: Track | None = None
         self._plan = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0), np.zeros(0),
@@ -243,6 +234,7 @@ class Planner:
         self._reanchor = np.zeros(0)
         self._stuck = np.zeros(0)
         self._runup_left = np.zeros(0)
+        self._packed = np.zeros(0)
 
     def reset(self, core: RaceCore) -> None:
         """Build (or fetch) the lanes of ``core.track`` and clear every copy's plan."""
@@ -267,8 +259,10 @@ class Planner:
         self._reanchor = np.full(e, kernel.REANCHOR)
         self._stuck = np.zeros(e)
         self._runup_left = np.zeros(e)
+        self._packed = self._params(core)
 
     def _params(self, core: RaceCore) -> FloatArray:
+        """The kernel's packed parameters (``kernel.P_*``) for ``core``'s car and rules."""
         car = core.config.car
         params = np.zeros(kernel.NUM_PARAMS)
         params[kernel.P_A_LAT] = self.grip_factor * car.friction * GRAVITY
@@ -296,8 +290,8 @@ class Planner:
 
     def act(self, core: RaceCore, car: int) -> npt.NDArray[np.float32]:
         """Return (E, 2) actions for car ``car``."""
-        if self.lanes is None or self._track is not core.track or \
-                len(self._plan[0]) != core.num_envs:
+        if (self.lanes is None or self._track is not core.track
+                or self._ratio.shape != (core.num_envs, core.num_cars)):
             self.reset(core)
         lanes = self.lanes
         assert lanes is not None
@@ -305,11 +299,11 @@ class Planner:
         s = core.s[:, car].copy()
         d = core.d[:, car].copy()
         v = core.speed[:, car].copy()
-        psi = track.heading_at(s)
+        psi = track.heading_at(core.s)  # every car's, (E, N)
         kc = track.curvature_at(s)
-        err = np.remainder(core.yaw[:, car] - psi + math.pi, 2.0 * math.pi) - math.pi
+        err = np.remainder(core.yaw[:, car] - psi[:, car] + math.pi, 2.0 * math.pi) - math.pi
         slope = np.clip(np.tan(np.clip(err, -1.2, 1.2)) * (1.0 - kc * d), -1.0, 1.0)
-        objects = self._objects(core, car)
+        objects = self._objects(core, car, psi)
         cap, ratio, accel = self._pace(core, car, lanes)
         traj = np.empty(objects[0].shape + (PREDICT_STEPS + 1,))
         kernel.predict(objects[0], objects[3], cap, ratio, s, lanes.speed[:1], lanes.inv_ds,
@@ -326,7 +320,7 @@ class Planner:
         kernel.plan(s, d, slope, v, lanes.offset, lanes.speed, lanes.curvature, lanes.centre,
                     lanes.inv_ds, lanes.length, transitions, horizon, 30, *objects[:3], traj,
                     *objects[3:], bonus,
-                    *self._plan, self._params(core), self._reanchor, self._runup(core),
+                    *self._plan, self._packed, self._reanchor, self._runup(core),
                     look, choice, d_look, v_cmd, self.report)
         self.choice = choice
         self._stuck = np.where(choice < 0, self._stuck + core.dt, 0.0)
@@ -365,8 +359,6 @@ class Planner:
         ``racing_line`` at grip 0.6 settles near ``sqrt(0.6 / grip_factor)``. It starts at 1
         (as fast as the planner). Bots keep their own constant speed.
         """
-        if self._ratio.shape != (core.num_envs, core.num_cars):
-            self._ratio = np.ones((core.num_envs, core.num_cars))
         profile = np.interp(np.remainder(core.s, lanes.length) * lanes.inv_ds,
                             np.arange(lanes.speed.shape[1] + 1),
                             np.append(lanes.speed[0], lanes.speed[0, 0]))
@@ -377,8 +369,6 @@ class Planner:
                                self._ratio)
         # Each car's acceleration, smoothed over ACCEL_TIME (a new episode's first step reads
         # 0): it keeps it in the prediction.
-        if self._speed.shape != core.speed.shape:
-            self._speed = core.speed.copy()
         seen_accel = (core.speed - self._speed) / core.dt
         self._accel += min(1.0, core.dt / ACCEL_TIME) * (seen_accel - self._accel)
         self._speed = core.speed.copy()
@@ -392,8 +382,9 @@ class Planner:
         return (np.ascontiguousarray(cap), np.ascontiguousarray(ratio),
                 np.ascontiguousarray(accel))
 
-    def _objects(self, core: RaceCore, car: int) -> tuple[Any, ...]:
-        """Other cars and bots as the kernel's object slots (E, N + B) (see ``plan``)."""
+    def _objects(self, core: RaceCore, car: int, psi: FloatArray) -> tuple[Any, ...]:
+        """Other cars and bots as the kernel's object slots (E, N + B) (see ``plan``);
+        ``psi`` is the track's heading at every car, (E, N) [rad]."""
         length = core.track.length
         car_len, car_wid = 0.5 * core.config.car.length, 0.5 * core.config.car.width
         gap = core.s - core.s[:, car : car + 1]
@@ -401,7 +392,6 @@ class Planner:
         valid = ~core.done
         valid[:, car] = False
         speed = np.where(core.racing, core.speed, 0.0)
-        psi = core.track.heading_at(core.s)
         dd = -core.velocity[..., 0] * np.sin(psi) + core.velocity[..., 1] * np.cos(psi)
         lo = hi = core.d
         half_len = np.full(gap.shape, car_len)

@@ -198,12 +198,15 @@ def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, tra
             left_w = _table(centre, 1, s0[e], inv_ds, length) - params[P_EDGE]
             right_w = _table(centre, 2, s0[e], inv_ds, length) - params[P_EDGE]
             hold = min(max(ref, -right_w), left_w)
-            _fill_hold(lane_d, lane_v, lane_k, hold, window, centre, inv_ds, params)
+            if beside and busy:  # only then is a new hold looked at
+                _fill_hold(lane_d, lane_v, lane_k, hold, window, centre, inv_ds, params)
         base_excess = _excess(ref, s0[e], centre, inv_ds, length, params[P_EDGE])
         best = (1e18, -1, 1.0, 0.0, True)  # cost, lane, transition, first speed, following
         stay_best = best
         nearest = (1e18, 0, 1.0, v0[e])  # excess, lane, transition, first speed
         for lane in range(num_lanes if busy else 1):
+            if lane == hold_lane and not beside:
+                continue  # a hold is for staying beside a car
             for j in range(num_trans + 1):
                 if j == num_trans:  # the tracked path itself, as it goes on
                     if lane != stay or left <= 0.0:
@@ -211,19 +214,18 @@ def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, tra
                     trans = max(left, 0.3)
                 else:
                     trans = transitions[e, j]
-                cost, v1, hit, excess, trans = _candidate(
-                    lane, trans, ref, ref_slope, s0[e], v0[e], step, samples, e, lane_d,
-                    lane_v, lane_k, centre, inv_ds, length, horizon[e], obj_gap, obj_lo,
-                    obj_hi, traj, obj_dd, obj_half_len, obj_half_wid, obj_valid, params,
-                    work)
-                if lane == hold_lane and not beside:
-                    continue  # a hold is for staying beside a car
+                trans = _stretched(lane_d, lane, ref, trans, s0[e], inv_ds, length)
                 # No change to another lane in a bend (set passes up before it); back to the
                 # racing line or a hold is allowed.
                 if (lane != stay and stay >= 0 and lane != hold_lane and lane != 0
                         and _bend(centre, s0[e], trans, inv_ds, length)
                         > params[P_SWITCH_CURVATURE]):
                     continue
+                cost, v1, hit, excess = _candidate(
+                    lane, trans, ref, ref_slope, s0[e], v0[e], step, samples, e, lane_d,
+                    lane_v, lane_k, centre, inv_ds, length, horizon[e], obj_gap, obj_lo,
+                    obj_hi, traj, obj_dd, obj_half_len, obj_half_wid, obj_valid, params,
+                    work)
                 if j < num_trans:
                     report[e, lane, j, 0] = cost
                     report[e, lane, j, 1] = hit
@@ -250,18 +252,17 @@ def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, tra
             v1 = min(v1, _follow_speed(e, d0, v0, obj_gap, obj_lo, obj_hi, obj_v, obj_dd,
                                        obj_half_len, obj_half_wid, obj_valid, params,
                                        gap_extra[e]))
-        if lane != stay or stay < 0:
-            if lane != plan_lane[e] or stay < 0:
-                lane_here = _table(lane_d, lane, s0[e], inv_ds, length)
-                plan_error[e] = ref - lane_here
-                plan_slope[e] = 0.0
-                if not math.isnan(ref_slope):
-                    plan_slope[e] = ref_slope - (_table(lane_d, lane, s0[e] + 0.05, inv_ds,
-                                                        length) - lane_here) / 0.05
-                plan_start[e] = s0[e]
-                plan_length[e] = trans
-                plan_lane[e] = lane
-                plan_hold[e] = hold
+        if lane != stay:  # a new path (stay is -1 when there is none to keep)
+            lane_here = _table(lane_d, lane, s0[e], inv_ds, length)
+            plan_error[e] = ref - lane_here
+            plan_slope[e] = 0.0
+            if not math.isnan(ref_slope):
+                plan_slope[e] = ref_slope - (_table(lane_d, lane, s0[e] + 0.05, inv_ds,
+                                                    length) - lane_here) / 0.05
+            plan_start[e] = s0[e]
+            plan_length[e] = trans
+            plan_lane[e] = lane
+            plan_hold[e] = hold
         d_look[e] = _path(lane_d, plan_lane[e], plan_start[e], plan_error[e], plan_slope[e],
                           plan_length[e], s0[e] + look[e], inv_ds, length)
         v_cmd[e] = _command(v0[e], v1, step, params)
@@ -272,16 +273,14 @@ def _candidate(lane, trans, ref, ref_slope, s_start, v_start, step, samples, e, 
                lane_k, centre, inv_ds, length, horizon, obj_gap, obj_lo, obj_hi, traj, obj_dd,
                obj_half_len, obj_half_wid, obj_valid, params, work):  # pragma: no cover
     """Evaluate one candidate: the blend from (``ref``, ``ref_slope``) onto ``lane`` over
-    ``trans`` metres. Returns its cost [s] (time to the horizon, plus the follow cost when it
-    must slow behind a car, plus the cost of ending off the racing line), its speed at the
-    first sample [m/s], the object it would hit (-1: none), how far it leaves the track [m]
-    and its transition length [m]. ``work`` is scratch space, (5, samples + 1)."""
+    ``trans`` metres (``_stretched``). Returns its cost [s] (time to the horizon, plus the
+    follow cost when it must slow behind a car, plus the cost of ending off the racing line),
+    its speed at the
+    first sample [m/s], the object it would hit (-1: none) and how far it leaves the track
+    [m]. ``work`` is scratch space, (5, samples + 1)."""
     v_lim, vel, dpath, times = work[0], work[1], work[2], work[3]
     lane_start = _table(lane_d, lane, s_start, inv_ds, length)
     e0 = ref - lane_start
-    # A lateral move of e0 over T metres has a largest slope of 1.875 e0 / T: keep it
-    # under MAX_SLOPE, so that the car's heading stays near the track's.
-    trans = max(trans, 1.875 * abs(e0) / MAX_SLOPE)
     e1 = 0.0
     if not math.isnan(ref_slope):
         e1 = ref_slope - (_table(lane_d, lane, s_start + 0.05, inv_ds, length)
@@ -351,7 +350,15 @@ def _candidate(lane, trans, ref, ref_slope, s_start, v_start, step, samples, e, 
         if times[i] > params[P_SPEED_PREVIEW]:
             break
         first = min(first, vel[i])
-    return t, first, hit, excess, trans
+    return t, first, hit, excess
+
+
+@njit(cache=True, inline="always")
+def _stretched(lane_d, lane, ref, trans, s, inv_ds, length):  # pragma: no cover
+    """A transition of ``trans`` metres from offset ``ref`` onto ``lane`` at ``s``, made
+    longer where needed: a lateral move of e0 over T metres has a largest slope of
+    1.875 e0 / T, kept under MAX_SLOPE so that the car's heading stays near the track's."""
+    return max(trans, 1.875 * abs(ref - _table(lane_d, lane, s, inv_ds, length)) / MAX_SLOPE)
 
 
 @njit(cache=True, inline="always")

@@ -104,6 +104,15 @@ class Setting:
             number = float(text)
         except ValueError:
             raise ValueError(self.allowed()) from None
+        return self.check(number)
+
+    def check(self, number: Any) -> float | int:
+        """``number`` if this numeric setting allows it (a real number, not a bool, finite, in
+        range; whole with ``integer``), as a float or int; ``ValueError(self.allowed())``
+        otherwise. A constructor checks its keyword arguments with it, as specs are."""
+        if isinstance(number, bool) or not isinstance(number, (int, float)):
+            raise ValueError(self.allowed())
+        number = float(number)
         if not math.isfinite(number) or (self.integer and not number.is_integer()):
             raise ValueError(self.allowed())
         low, high = self.low, self.high
