@@ -126,14 +126,31 @@ def _reward_terms(text: str) -> dict[str, float]:
 def _cmd_evaluate(args: argparse.Namespace) -> int:
     from h2h_racing.training.evaluate import Evaluation, evaluate
 
+    items = [args.track] if isinstance(args.track, str) else list(args.track)
     if args.against and args.field:
         print("error: give --against (two-car races, one opponent at a time) or --field (all "
               "the opponents on the grid at once), not both", file=sys.stderr)
         return 2
-    if args.field:
-        return _evaluate_field(args)
-    if args.against:
-        return _evaluate_head_to_head(args)
+    if (args.against or args.field) and args.race_type != "time_trial":
+        print(f"error: --race-type {args.race_type} races the policy alone with boxes or bots; "
+              "--against and --field race it against other cars (head to head): give one of "
+              "them", file=sys.stderr)
+        return 2
+    if args.field or args.against:
+        from h2h_racing.training.evaluate_routes import route_sources
+
+        args.track = [source.source for source in route_sources(items).routes]
+        return _evaluate_field(args) if args.field else _evaluate_head_to_head(args)
+    parts = [part for item in items for part in item.split(",") if part.strip()]
+    if (len(parts) != 1 or parts[0] == "all" or Path(parts[0]).is_dir()
+            or args.race_type != "time_trial" or args.json is not None or args.jobs is not None):
+        from h2h_racing.training.evaluate_routes_report import evaluate_routes_command
+
+        return evaluate_routes_command(
+            items, args.policy, race_type=args.race_type, episodes=args.episodes,
+            races=args.races, laps=args.laps, seed=args.seed, baseline=args.baseline,
+            jobs=args.jobs, json_path=args.json, progress=progress_mode(args))
+    args.track = parts[0]
     print(f"{args.track}: {args.episodes} one-lap attempts from start points spread round the "
           "lap (training rules: an infraction ends the attempt)")
     drivers = [d for d in [args.policy, *args.baseline.split(",")] if d]
@@ -160,13 +177,12 @@ def _evaluate_head_to_head(args: argparse.Namespace) -> int:
     from h2h_racing.training.evaluate import (combine, head_to_head, head_to_head_header,
                                             head_to_head_row)
     from h2h_racing.policies import make_driver
-    from h2h_racing.track_io import list_tracks
 
     if args.start == "both" and (args.races < 2 or args.races % 2):
         print(f"error: --races must be an even number >= 2 with --start both (every start in "
               f"both seat orders), got {args.races}", file=sys.stderr)
         return 2
-    tracks = list_tracks() if args.track == "all" else args.track.split(",")
+    tracks = args.track
     policy = make_driver(args.policy, seed=args.seed)
     grid = {"both": "every start point in both seat orders", "behind": "the policy starts "
             "behind", "front": "the policy starts in front"}[args.start]
@@ -218,7 +234,6 @@ def _evaluate_head_to_head(args: argparse.Namespace) -> int:
 
 def _evaluate_field(args: argparse.Namespace) -> int:
     from h2h_racing.policies import make_driver
-    from h2h_racing.track_io import list_tracks
     from h2h_racing.training.evaluate_field import (combine_fields, field_header, field_race,
                                                   field_rows)
 
@@ -227,7 +242,7 @@ def _evaluate_field(args: argparse.Namespace) -> int:
               "grid slot", file=sys.stderr)
         return 2
     names = [name for name in args.field.split(",") if name]
-    tracks = list_tracks() if args.track == "all" else args.track.split(",")
+    tracks = args.track
     gap = f", {args.gap:g} m grid gap" if args.gap is not None else ""
     gap += f", rolling start at {args.rolling:g} m/s" if args.rolling else ""
     print(f"{args.policy} with {', '.join(names)}: {args.races} {len(names) + 1}-car races of "
@@ -381,20 +396,47 @@ def add_training_commands(sub: argparse._SubParsersAction) -> None:
                             "lines each) instead of the progress line")
     train.set_defaults(func=_cmd_train)
 
-    evaluate = sub.add_parser("evaluate", help="a policy's lap completion and lap times alone, or "
-                                                  "its head-to-head record (--against)")
+    evaluate = sub.add_parser("evaluate", help="a policy's lap completion and lap times alone "
+                                                  "(on one track or every route of a folder), "
+                                                  "its races with boxes or bots (--race-type), "
+                                                  "or its head-to-head record (--against)")
     evaluate.add_argument("--policy", required=True,
                           help="policy.pt, a shipped policy or a scripted driver name; "
                                + SPEC_HELP)
-    evaluate.add_argument("--track", default="speedway",
-                          help="catalogue name or track file; with --against also a comma list "
-                               "or 'all'")
+    evaluate.add_argument("--track", nargs="+", default="speedway", metavar="TRACK",
+                          help="catalogue name or track file; or several (space- or "
+                               "comma-separated), a folder (its .json, .npy and .csv files) or "
+                               "'all' (the catalogue): then every route is evaluated, one row "
+                               "each, with a summary (routes at >= 95 %% laps, the worst "
+                               "routes, laps against the --baseline's and the reference lap); "
+                               "a file that cannot be evaluated gets one line and the others "
+                               "go on (exit status 1) (default: speedway)")
     evaluate.add_argument("--episodes", type=int, default=20,
-                          help="one-lap attempts, from start points spread round the lap")
-    evaluate.add_argument("--seed", type=int, default=0, help=SEED_HELP)
+                          help="one-lap attempts, from start points spread round the lap "
+                               "(default: 20)")
+    evaluate.add_argument("--seed", type=int, default=0, help=SEED_HELP + " (default: 0)")
     evaluate.add_argument("--baseline", default="racing_line",
                           help="comma-separated drivers evaluated on the same start points "
-                               "(scripted ones with any settings)")
+                               "(scripted ones with any settings); over several routes only "
+                               "the first, whose mean lap each route's is compared with; '' "
+                               "for none (default: racing_line)")
+    evaluate.add_argument("--race-type", default="time_trial",
+                          choices=("time_trial", "object_avoidance", "head_to_bot"),
+                          help="time_trial: one-lap attempts alone (--episodes); "
+                               "object_avoidance (DeepRacer's 6 boxes, re-drawn every race) or "
+                               "head_to_bot (3 bots at 0.75 m/s): --races races of --laps laps "
+                               "per track from the start line under race rules, with races "
+                               "finished, crashes and resets per lap against the targets "
+                               ">= 90 %% finished, <= 0.5 crashes and <= 1 reset per lap "
+                               "(default: time_trial)")
+    evaluate.add_argument("--jobs", type=int, default=None, metavar="N",
+                          help="worker processes over several routes (each route runs in one); "
+                               "1 runs them in this process (default: one per core, at most "
+                               "one per route)")
+    evaluate.add_argument("--json", default=None, metavar="PATH",
+                          help="also write the figures (one object per route, the files not "
+                               "evaluated and the summary) to this JSON file; its folder must "
+                               "exist (default: none)")
     evaluate.add_argument("--against", default=None, metavar="DRIVERS",
                           help="comma-separated opponents (scripted ones with any settings: "
                                "racing_line:grip_factor=0.7): race the policy head to head "
@@ -403,7 +445,8 @@ def add_training_commands(sub: argparse._SubParsersAction) -> None:
                                "the policy's pace margin")
     evaluate.add_argument("--races", type=int, default=20,
                           help="races per track and opponent with --against (even with --start "
-                               "both: both seat orders of every start), per track with --field")
+                               "both: both seat orders of every start), per track with --field "
+                               "or --race-type (default: 20)")
     evaluate.add_argument("--start", default="both", choices=["both", "behind", "front"],
                           help="the policy's grid slot with --against: both (alternating on "
                                "the same start points), behind (every win is a pass) or front "
@@ -423,7 +466,8 @@ def add_training_commands(sub: argparse._SubParsersAction) -> None:
                                "of the cars); results by the policy's grid slot, and each car's "
                                "time-trial lap")
     evaluate.add_argument("--laps", type=int, default=3,
-                          help="laps per race with --against or --field")
+                          help="laps per race with --against, --field or --race-type "
+                               "(default: 3)")
     add_progress_flag(evaluate)
     evaluate.set_defaults(func=_cmd_evaluate)
 

@@ -85,6 +85,109 @@ def evaluate(driver: Any, track: str | Track, episodes: int = 20, seed: int = 0,
         off_tracks=int(core.off_tracks[:, 0].sum()), collisions=int(core.collisions[:, 0].sum()))
 
 
+RACE_TYPE_CHOICES = ("object_avoidance", "head_to_bot")
+"""Race types ``evaluate_races`` runs: one car alone with DeepRacer's boxes, or with its bots."""
+
+
+@dataclass(frozen=True)
+class RaceEvaluation:
+    """Figures of one driver over ``races`` races of a race type, alone with its boxes or bots.
+
+    The per-lap figures divide by the laps completed over every race (NaN when none was)."""
+
+    driver: str
+    track: str
+    race_type: str
+    races: int
+    laps: int
+    """Lap target of each race."""
+    finished: int
+    """Races that reached the lap target within the time limit."""
+    laps_done: int
+    """Laps completed, over all races."""
+    crashes: int
+    """Crashes into a box or a bot (each costs a penalty and a reset), over all races."""
+    resets: int
+    """Times the car was put back on the track (after a crash or leaving it), over all races."""
+    off_tracks: int
+    """Times the car left the track, over all races."""
+    mean_race_time: float
+    """Mean finish time of the finished races [s] (inf if none)."""
+
+    def per_lap(self, count: int) -> float:
+        """``count`` per lap completed (NaN without a lap)."""
+        return count / self.laps_done if self.laps_done else float("nan")
+
+    @property
+    def crashes_per_lap(self) -> float:
+        """Crashes per lap completed (NaN without a lap)."""
+        return self.per_lap(self.crashes)
+
+    @property
+    def resets_per_lap(self) -> float:
+        """Resets per lap completed (NaN without a lap)."""
+        return self.per_lap(self.resets)
+
+
+def evaluate_races(driver: Any, track: str | Track, race_type: str, races: int = 20,
+                   laps: int = 3, seed: int = 0) -> RaceEvaluation:
+    """Run ``races`` races of ``race_type`` for ``driver`` alone (with the race type's boxes
+    or bots), all at once as env copies of one batched core.
+
+    Every race starts on the start line, as DeepRacer's do; the races differ by their boxes
+    (``object_avoidance``: DeepRacer's 6, re-drawn per race: ``randomize_obstacles``) or by
+    their bots' lane changes (``head_to_bot``: 3 bots at 0.75 m/s), drawn from ``seed``. Race
+    rules of the race type (``RaceRules.preset``: a 5 s penalty per infraction, a crash is
+    also a reset) with ``laps`` laps and a minute a lap (the preset's 180 s for 3).
+
+    Args:
+        driver: A driver spec (``make_driver``) or a driver object.
+        track: Catalogue name, track file or ``Track``.
+        race_type: One of ``RACE_TYPE_CHOICES``.
+        races: Races (env copies).
+        laps: Lap target of each race.
+        seed: Seed of the core and of a driver built from a spec.
+
+    Raises:
+        ValueError: For another race type, fewer than one race or lap, or a track the race
+            type's boxes or bots do not fit on.
+    """
+    import dataclasses
+
+    from h2h_racing.policies import make_driver
+
+    if race_type not in RACE_TYPE_CHOICES:
+        raise ValueError(f"race_type must be one of {', '.join(RACE_TYPE_CHOICES)}, got "
+                         f"{race_type!r} (time trials: evaluate)")
+    if not (isinstance(races, int) and races >= 1 and isinstance(laps, int) and laps >= 1):
+        raise ValueError(f"races and laps must be whole numbers >= 1, got {races!r} and "
+                         f"{laps!r}")
+    if isinstance(driver, str):
+        driver = make_driver(driver, seed=seed)
+    loaded = track if isinstance(track, Track) else load_track(track)
+    # The preset's 180 s is DeepRacer's limit for its 3 laps: a minute a lap.
+    rules = dataclasses.replace(RaceRules.preset(race_type), laps=laps, time_limit=60.0 * laps)
+    # DeepRacer re-draws the boxes of every object-avoidance episode; run_race's default
+    # keeps them fixed, which would make every race the same one.
+    extra = {"randomize_obstacles": True} if race_type == "object_avoidance" else {}
+    env_config = EnvConfig(track=loaded.name if isinstance(track, Track) else track, num_cars=1,
+                           race_type=race_type, rules=rules, **extra)
+    core = RaceCore(env_config, loaded, num_envs=races)
+    core.reset(seed=seed)
+    driver.reset(core)
+    while not core.done.all():
+        core.step(*env_config.commands(np.asarray(driver.act(core, 0))[:, None, :]))
+    finished = core.finished[:, 0]
+    times = core.finish_time[finished, 0]
+    return RaceEvaluation(
+        driver=getattr(driver, "name", type(driver).__name__), track=loaded.name,
+        race_type=race_type, races=races, laps=laps, finished=int(finished.sum()),
+        laps_done=int(np.minimum(core.laps[:, 0], laps).sum()),
+        crashes=int(core.crashes[:, 0].sum()), resets=int(core.resets[:, 0].sum()),
+        off_tracks=int(core.off_tracks[:, 0].sum()),
+        mean_race_time=float(times.mean()) if times.size else float("inf"))
+
+
 TIME_TRIAL_EPISODES = 4
 """One-lap attempts behind ``time_trial_lap``'s mean (from start points spread round the lap)."""
 
@@ -349,6 +452,7 @@ def head_to_head_row(result: HeadToHead, opponent: str, width: int = 16) -> str:
             f"{ratio(result.wins_behind, result.races_behind):>11} "
             f"{ratio(result.wins_front, result.races_front):>11} "
             f"{' / '.join(map(lap_text, result.time_trial_laps)):>15} "
-            f"{margin_text(result.pace_margin):>8} {per_race(result.overtakes):>12} {per_race(result.crashes):>12} "
+            f"{margin_text(result.pace_margin):>8} {per_race(result.overtakes):>12} "
+            f"{per_race(result.crashes):>12} "
             f"{per_race(result.defences):>13} "
             f"{ratio(*result.finished):>11}")
