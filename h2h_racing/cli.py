@@ -29,7 +29,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from h2h_racing.cli_help import DESCRIPTION, DRIVERS_HELP, EPILOG, SEED_HELP, ArgumentParser
-from h2h_racing.cli_training import add_training_commands
+from h2h_racing.cli_training import add_training_commands, warn_trained_alone
 from h2h_racing.config_rules import RACE_TYPES
 from h2h_racing.progress import add_progress_flag, progress_mode
 
@@ -122,6 +122,7 @@ def _cmd_race(args: argparse.Namespace) -> int:
 
     drivers = [d.strip() for d in args.drivers.split(",") if d.strip()]
     tracks = list_tracks() if args.track == "all" else [args.track]
+    warn_trained_alone(drivers, others=len(drivers) - 1)
     for flag, value in (("--video", args.video), ("--save", args.save),
                         ("--spawn", args.spawn), ("--serve", args.serve),
                         ("--simtrace", args.simtrace)):

@@ -18,23 +18,129 @@ from h2h_racing.progress import Progress, add_progress_flag, progress_mode
 
 
 def _cmd_train(args: argparse.Namespace) -> int:
+    from h2h_racing.training.interrupt import (EXIT_INTERRUPTED, StopRequest,
+                                               TrainingInterrupted)
     from h2h_racing.training.train import train
 
-    config = _train_config(args)
-    runner = train(config, iterations=args.iterations, out=args.out, minutes=args.minutes,
-                   progress=progress_mode(args), verbose=args.verbose)
     out = Path(args.out)
+    config = _train_config(args)
+    stop = StopRequest(hard_stop=lambda: _stopped_line(args, "stopped at once (a second "
+                                                             "Ctrl-C)"))
+    try:
+        runner = train(config, iterations=args.iterations, out=out, minutes=args.minutes,
+                       progress=progress_mode(args), verbose=args.verbose,
+                       resume=args.resume, overwrite=args.overwrite, stop=stop)
+    except TrainingInterrupted as stopped:
+        print(f"interrupted after iteration {stopped.done}: kept {stopped.checkpoint} and "
+              f"{stopped.policy} (the actor at that iteration) and the curves; resume with: "
+              f"{_resume_command(args, out)}", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except KeyboardInterrupt:  # a Ctrl-C before training started (setup, compiling)
+        print(_stopped_line(args, "interrupted before training started"), file=sys.stderr)
+        return EXIT_INTERRUPTED
     print(f"trained {runner.current_learning_iteration} iterations -> {out / 'policy.pt'} "
-          f"(rsl-rl logs and checkpoints in {out})")
+          f"(rsl-rl logs and checkpoints in {out}; curves: tensorboard --logdir {out})")
     if args.simtrace:
         print(f"DeepRacer simtrace + metrics -> {out / 'simtrace'} (deepracer-utils: "
               f"DeepRacerLog('{out / 'simtrace' / 'car_0'}').load_training_trace())")
     if args.onnx:
         from h2h_racing.training.export import export_policy
 
-        # The exported actor is policy.pt's (the best iteration's with evaluation), checked.
-        print(export_policy(out / "policy.pt", out, formats="onnx").summary())
+        # The exported actor is policy.pt's, checked against it: its own phase on the line.
+        bar = Progress("export", mode=progress_mode(args))
+        bar.update(0.0, "policy.pt -> policy.onnx, checking it against policy.pt", force=True)
+        try:
+            result = export_policy(out / "policy.pt", out, formats="onnx")
+        except KeyboardInterrupt:
+            bar.clear()
+            print(f"interrupted during the ONNX export: training is complete, {out} holds "
+                  f"policy.pt; export it with: h2h-racing export {out / 'policy.pt'} "
+                  "--format onnx", file=sys.stderr)
+            return EXIT_INTERRUPTED
+        bar.update(1.0, "policy.onnx written and checked", force=True)
+        bar.close()
+        print(result.summary())
     return 0
+
+
+def _stopped_line(args: argparse.Namespace, what: str) -> str:
+    """One line for a run stopped without ``TrainingInterrupted``: what ``--out`` keeps, and
+    the command that goes on (``--resume`` from its latest checkpoint, or a fresh start)."""
+    from h2h_racing.training.run_folder import latest_checkpoint
+
+    out = Path(args.out)
+    latest = latest_checkpoint(out) if out.is_dir() else None
+    if latest is not None:
+        return f"{what}: kept {latest}; resume with: {_resume_command(args, out)}"
+    start = _command_line(args, {"resume": False, "overwrite": out.is_dir() and any(
+        out.iterdir())})
+    return f"{what}: nothing kept (no checkpoint in {out}); start again with: {start}"
+
+
+def _resume_command(args: argparse.Namespace, out: Path) -> str:
+    """The ``h2h-racing train`` command line that resumes the run in ``out``."""
+    return _command_line(args, {"resume": True, "overwrite": False})
+
+
+def _command_line(args: argparse.Namespace, replace: dict[str, object]) -> str:
+    """``args``' ``h2h-racing train`` command line, shell-quoted: every option of train's
+    parser whose value differs from its default (``replace`` first; ``--progress`` left out)."""
+    import shlex
+
+    values = {**vars(args), **replace}
+    parser = args.train_parser
+    parts = ["h2h-racing", "train"]
+    for action in parser._actions:  # argparse has no public list of a parser's options
+        if not action.option_strings or action.dest in ("help", "progress"):
+            continue
+        value = values.get(action.dest, action.default)
+        if value is None or value == action.default:
+            continue
+        option = next(o for o in action.option_strings if o.startswith("--"))
+        if isinstance(action, argparse.BooleanOptionalAction):
+            parts.append(option if value else "--no-" + option[2:])
+        elif action.nargs == 0:
+            parts.append(option)
+        else:
+            parts += [option, str(value)]
+    return shlex.join(parts)
+
+
+_WARNED_ALONE: set[str] = set()
+"""Policies ``warn_trained_alone`` has warned about in this process (once each)."""
+
+
+def warn_trained_alone(drivers: list[str], others: int) -> None:
+    """Warn once on stderr, per policy, when a policy among ``drivers`` that was trained alone
+    (its policy file's ``racing`` record, ``training.policy_file.trained_alone``) races
+    ``others`` (>= 1) other cars: it has never seen a car, and crashes into them. Scripted
+    drivers, and files that do not load (the command reports those itself), are passed over."""
+    from h2h_racing.policies.registry import parse_driver_spec
+    from h2h_racing.policies.trained import shipped_policies
+
+    if others < 1:
+        return
+    shipped = shipped_policies()
+    for text in dict.fromkeys(drivers):
+        try:
+            name = parse_driver_spec(text).name
+        except ValueError:
+            continue
+        if name in _WARNED_ALONE or not (name in shipped or name.endswith(".pt")):
+            continue
+        try:
+            from h2h_racing.policies.trained import load_policy_payload
+            from h2h_racing.training.policy_file import trained_alone
+
+            alone = trained_alone(load_policy_payload(name))
+        except (ImportError, OSError, ValueError):
+            continue
+        if alone:
+            _WARNED_ALONE.add(name)
+            print(f"warning: {name} was trained alone (no other car on its track), and races "
+                  f"{others} other car{'s' if others > 1 else ''} here: it has never seen one "
+                  f"and is likely to crash; for races, train it against a car (h2h-racing "
+                  f"train's default: --opponents racing_line)", file=sys.stderr, flush=True)
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
@@ -191,6 +297,7 @@ def _evaluate_head_to_head(args: argparse.Namespace) -> int:
     print(f"{args.policy}: {args.races} two-car races of {args.laps} laps per track and opponent "
           f"(race rules: 5 s penalties), {grid}{gap}")
     opponents = args.against.split(",")
+    warn_trained_alone([args.policy, *opponents], others=1)
     width = max(16, *map(len, opponents))
     print(head_to_head_header(width))
     results: dict[str, list] = {}
@@ -242,6 +349,7 @@ def _evaluate_field(args: argparse.Namespace) -> int:
               "grid slot", file=sys.stderr)
         return 2
     names = [name for name in args.field.split(",") if name]
+    warn_trained_alone([args.policy, *names], others=len(names))
     tracks = args.track
     gap = f", {args.gap:g} m grid gap" if args.gap is not None else ""
     gap += f", rolling start at {args.rolling:g} m/s" if args.rolling else ""
@@ -345,10 +453,13 @@ def add_training_commands(sub: argparse._SubParsersAction) -> None:
                             "copies); " + SPEC_HELP + " (default without --config: "
                             "racing_line, with a contact cost of -5 in the reward)")
     train.add_argument("--iterations", type=int, default=1000,
-                       help="PPO (or imitation) iterations, each of --envs copies x 32 steps")
+                       help="the run's PPO (or imitation) iterations, each of --envs copies x "
+                            "32 steps; a resumed run's earlier ones count (default: 1000)")
     train.add_argument("--minutes", type=float, default=None,
-                       help="stop after this much training time (checked every 10 iterations), "
-                            "or at --iterations if that comes first")
+                       help="the run's wall-clock budget, setup and evaluations included (a "
+                            "resumed run's earlier time too): it stops after the iteration past "
+                            "which the next would end beyond it, or at --iterations if that "
+                            "comes first (default: none)")
     train.add_argument("--envs", type=int, default=None,
                        help="env copies stepped together (default: 256)")
     train.add_argument("--device", default=None, choices=["cpu", "cuda"],
@@ -389,12 +500,23 @@ def add_training_commands(sub: argparse._SubParsersAction) -> None:
     train.add_argument("--onnx", action=argparse.BooleanOptionalAction, default=True,
                        help="also export policy.pt's actor to OUT/policy.onnx, checked "
                             "(h2h-racing export)")
-    train.add_argument("--out", required=True, help="output folder, e.g. runs/speedway")
+    train.add_argument("--out", required=True,
+                       help="output folder, e.g. runs/speedway: checkpoints, tensorboard log, "
+                            "curves.csv and curves.png, policy.pt; one that holds anything is "
+                            "refused without --resume or --overwrite")
+    train.add_argument("--resume", action="store_true",
+                       help="continue the run in --out from its latest checkpoint, its curves "
+                            "and its time (--iterations and --minutes count the whole run); "
+                            "give the run's own settings (default: off)")
+    train.add_argument("--overwrite", action="store_true",
+                       help="delete the run in --out first (its checkpoints, tensorboard "
+                            "files, curves, policy, evaluations), so that curves are not mixed "
+                            "(default: off)")
     add_progress_flag(train)
     train.add_argument("--verbose", action="store_true",
                        help="print rsl-rl's block of figures after every iteration (about 40 "
                             "lines each) instead of the progress line")
-    train.set_defaults(func=_cmd_train)
+    train.set_defaults(func=_cmd_train, train_parser=train)
 
     evaluate = sub.add_parser("evaluate", help="a policy's lap completion and lap times alone "
                                                   "(on one track or every route of a folder), "

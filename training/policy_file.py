@@ -47,7 +47,30 @@ def policy_payload(runner: Any, config: TrainConfig,
         "env_config": _plain(config.env_config().to_dict()),
         "train_config": _plain(dataclasses.asdict(config)),
         "training": dict(training or {}),
+        "racing": racing_record(config),
     }
+
+
+def racing_record(config: TrainConfig) -> dict[str, Any]:
+    """How the policy was trained to meet other cars, the ``racing`` key of a policy file:
+    ``alone`` (no other car in its env copies: a time trial, or boxes and bot cars only),
+    ``cars`` per copy, ``learners`` among them, and the ``opponents`` driving the others (empty
+    in self-play). A policy trained alone has never seen another car: ``race`` and
+    ``evaluate`` warn when it races one (``trained_alone``)."""
+    learners = config.num_cars if config.learners is None else config.learners
+    return {"alone": config.num_cars == 1, "cars": config.num_cars, "learners": learners,
+            "opponents": config.opponents() if learners < config.num_cars else []}
+
+
+def trained_alone(payload: dict[str, Any]) -> bool | None:
+    """Whether the policy dict ``payload`` was trained with no other car on its track: its
+    ``racing`` record, or for files written before it, its env config's ``num_cars`` of 1
+    (None when neither says)."""
+    racing = payload.get("racing")
+    if isinstance(racing, dict) and isinstance(racing.get("alone"), bool):
+        return racing["alone"]
+    cars = payload.get("env_config", {}).get("num_cars")
+    return cars == 1 if isinstance(cars, int) else None
 
 
 def save_policy(runner: Any, config: TrainConfig, path: str | Path,
@@ -134,6 +157,37 @@ def load_actor(model: Any, payload: dict[str, Any], what: str) -> None:
         raise ValueError(f"{what} does not fit the actor being trained (hidden sizes or "
                          f"observations differ): {' '.join(str(err).split())}") from None
 
+
+def load_checkpoint(runner: Any, path: str | Path) -> None:
+    """Load one of ``train``'s checkpoints (rsl-rl's ``model_<i>.pt``: PPO's actor, critic and
+    optimizer, or distillation's student, teacher and optimizer, and the iteration) into
+    ``runner`` weights-only, for ``train --resume``; rsl-rl's own ``load`` unpickles with
+    ``weights_only=False``, which runs whatever code the file holds.
+
+    Raises:
+        FileNotFoundError, ValueError: The file is missing, unreadable, unsafe, lacks a key, or
+            its tensors do not fit ``runner``'s networks; the message names the file.
+    """
+    from h2h_racing.policies.weights import WeightsFileError, check_keys, load_weights
+
+    distilling = hasattr(runner.alg, "teacher_loaded")
+    expected = ("a checkpoint of `h2h-racing train` (rsl-rl's model_<i>.pt: "
+                + ("student, teacher" if distilling else "actor, critic")
+                + " and optimizer state dicts and the iteration)")
+    keys = DISTILL_STATE_KEYS if distilling else RUNNER_STATE_KEYS
+    state = check_keys(load_weights(path, expected), keys, str(path), expected)
+    try:
+        runner.alg.load(state, None, True)
+    except (RuntimeError, TypeError, ValueError, KeyError) as err:
+        raise WeightsFileError(f"{path}: does not fit this run's networks (resume with the "
+                               f"settings that trained it): {type(err).__name__}: "
+                               f"{' '.join(str(err).split())}") from None
+    runner.current_learning_iteration = state["iter"]
+
+
+DISTILL_STATE_KEYS = {"student_state_dict": dict, "teacher_state_dict": dict,
+                      "optimizer_state_dict": dict, "iter": int}
+"""What rsl-rl's ``DistillationRunner.save`` writes (``Distillation.save()`` plus ``iter``)."""
 
 RUNNER_STATE_KEYS = {"actor_state_dict": dict, "critic_state_dict": dict,
                      "optimizer_state_dict": dict, "iter": int}

@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import importlib.util
 import os
-import time
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -34,103 +34,205 @@ import numpy as np  # noqa: E402
 
 from h2h_racing.training.camera_network import use_channels_last  # noqa: E402
 from h2h_racing.training.config import PROCEDURAL, TrainConfig  # noqa: E402
+from h2h_racing.training.curves import (  # noqa: E402
+    REWARD_FUNCTION_TERM, CurveWriter, plot_curves, seconds_at)
 from h2h_racing.training.device import check_device_available  # noqa: E402
+from h2h_racing.training.interrupt import StopRequest, TrainingInterrupted  # noqa: E402
 from h2h_racing.training.policy_file import (  # noqa: E402
-    load_actor, load_init, policy_payload, save_policy)
+    load_actor, load_init, load_checkpoint, policy_payload, save_policy)
+from h2h_racing.training.run_folder import RunFolderError, check_out, checkpoints  # noqa: E402
 from h2h_racing.training.teachers import load_teacher  # noqa: E402
-from h2h_racing.training.train_progress import TrainDisplay, quiet  # noqa: E402
+from h2h_racing.training.train_progress import (  # noqa: E402
+    Budget, IterationHook, StopTraining, TrainDisplay, quiet)
 from h2h_racing.training.vec_env_tracks import TrackGroups  # noqa: E402
 from h2h_racing.progress import Mode  # noqa: E402
 
 
 def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
-          minutes: float | None = None, progress: Mode = "off", verbose: bool = False) -> Any:
+          minutes: float | None = None, progress: Mode = "off", verbose: bool = False,
+          resume: bool = False, overwrite: bool = False,
+          stop: StopRequest | None = None) -> Any:
     """Train with PPO (or distil ``config.imitation.teacher``); return the rsl-rl runner.
 
     Args:
         config: What to train.
-        iterations: PPO iterations (each ``num_envs * num_steps_per_env`` samples).
-        out: Folder for rsl-rl's logs and checkpoints, the evaluation recordings
-            (``eval/iter_<n>.rrd``, see ``evaluate_during_training``), the final
-            ``policy.pt`` and, with ``config.simtrace_envs``, DeepRacer logs in
-            ``out/simtrace/<car>`` (with DeepRacer's evaluation episodes between iterations,
+        iterations: The run's PPO iterations (each ``num_envs * num_steps_per_env`` samples),
+            a resumed run's earlier ones included.
+        out: Folder for rsl-rl's logs and checkpoints, ``curves.csv`` and ``curves.png``
+            (``training.curves``), the evaluation recordings (``eval/iter_<n>.rrd``, see
+            ``evaluate_during_training``), the final ``policy.pt`` and, with
+            ``config.simtrace_envs``, DeepRacer logs in ``out/simtrace/<car>`` (with
+            DeepRacer's evaluation episodes between iterations,
             ``config.simtrace_eval_trials``); None keeps nothing on disk and skips the
-            evaluations.
-        minutes: Stop after the first iteration that ends past this wall-clock budget.
+            evaluations. A folder that holds anything is refused unless ``resume`` or
+            ``overwrite`` (``training.run_folder.check_out``).
+        minutes: The run's wall-clock budget, setup and evaluations included (a resumed run's
+            earlier time too): it stops after the iteration past which the next would end
+            beyond it.
         progress: ``"auto"``: a progress line on stderr (``train_progress.TrainDisplay``:
             iterations of the run, samples/s, mean reward, lap completion, ETA); ``"off"``:
             none.
         verbose: Print rsl-rl's model summaries and its block of figures after every
             iteration (with the run's totals) instead.
+        resume: Continue the run in ``out`` from its latest checkpoint (weights-only), its
+            curves and its time budget.
+        overwrite: Delete the run in ``out`` first (its checkpoints, logs, curves, policy).
+        stop: Takes Ctrl-C over while training runs (``training.interrupt``): after the
+            current iteration the run saves a checkpoint and ``policy.pt`` and raises
+            ``TrainingInterrupted``. None makes one with a plain line for a second Ctrl-C.
+
+    Raises:
+        RunFolderError: ``out`` does not suit the run (see ``out``).
+        TrainingInterrupted: A Ctrl-C stopped the run (after saving).
     """
+    out = None if out is None else Path(out)
+    checkpoint = None if out is None else check_out(out, resume=resume, overwrite=overwrite)
+    done = 0 if checkpoint is None else checkpoints(out)[-1][0] + 1  # type: ignore[arg-type]
+    spent = 0.0 if checkpoint is None else seconds_at(out / "curves.csv", done)  # type: ignore
+    budget = Budget(minutes, spent)
+    if checkpoint is not None and (done >= iterations or budget.spent_all()):
+        used = (f"{done} of --iterations {iterations}" if done >= iterations
+                else f"{spent / 60:.1f} of --minutes {minutes:g}")
+        raise RunFolderError(f"--resume: the run in {out} already trained {used}; give a larger "
+                             f"--iterations or --minutes (both count the whole run) to train on")
     # Before any work: a run asked for a GPU this machine lacks fails here, not after the env.
     check_device_available(config.device)
-    torch.manual_seed(config.seed)
+    torch.manual_seed(config.seed + done)
     torch.set_num_threads(config.torch_threads)
+    display = TrainDisplay(iterations, budget, mode=progress, verbose=verbose, first=done)
+    display.starting(f"building {config.num_envs} env copies, compiling kernels on a first run")
     # The env runs on the CPU whatever the learner's device (rsl-rl moves the observations).
-    env = config.make_env(simtrace=None if out is None else Path(out) / "simtrace")
+    env = config.make_env(simtrace=None if out is None else out / "simtrace")
     with quiet(verbose):
-        runner = make_runner(config, env, None if out is None else str(Path(out)))
+        runner = make_runner(config, env, None if out is None else str(out))
+    if checkpoint is not None:
+        load_checkpoint(runner, checkpoint)
+        display.clear()
+        print(f"resuming at iteration {done} of {iterations} from {checkpoint}"
+              + (f" ({spent / 60:.1f} of {minutes:g} minutes used)" if minutes else ""),
+              flush=True)
+    runner.current_learning_iteration = done
     if getattr(env, "simtrace", None) is not None and config.simtrace_eval_trials:
         # DeepRacer's evaluation episodes between the simtrace's iterations.
         from h2h_racing.training.simtrace_eval import SimtraceEvaluations
 
         evaluations = SimtraceEvaluations.for_run(config, env, runner)  # type: ignore[arg-type]
         env.evaluations = evaluations  # type: ignore[union-attr]
-    display = TrainDisplay(runner, iterations, minutes, mode=progress, verbose=verbose)
-    start = time.perf_counter()
-    done = 0
+    terms = reward_terms(config)
+    curves = None if out is None else CurveWriter(out / "curves.csv", terms,
+                                                  keep=done if checkpoint else None)
+    stop = stop if stop is not None else StopRequest()
+    listeners: list[Any] = [display]
+    if curves is not None:
+        listeners.append(lambda figures: curves.add_iteration(figures.row()))
+    hook = IterationHook(runner, iterations, terms, config.reward_function is not None, budget,
+                         listeners, stop=lambda: stop.requested, planned=display.planned)
     procedural = config.track == PROCEDURAL
     eval_every = config.eval_every if out is not None else 0
-    chunk = iterations
-    if minutes is not None:
-        chunk = 10
-    tracks = np.random.default_rng(config.seed + 1)
+    tracks = _track_draws(config, env, done) if procedural else None
     save_interval = runner.cfg["save_interval"]
-    extra: Path | None = None
-    while done < iterations:
-        # Each learn() call stops where the track changes, an evaluation is due or the time
-        # budget is checked.
-        step = min(chunk, iterations - done)
-        if procedural:
-            every = config.procedural.every
-            if done % every == 0:
-                drawn = [config.procedural.draw(tracks) for _ in range(config.procedural.tracks)]
-                if isinstance(env, TrackGroups):
-                    env.set_tracks(drawn)
-                else:
-                    env.set_track(drawn[0])
-            step = min(step, every - done % every)
-        if eval_every:
-            step = min(step, eval_every - done % eval_every)
-        with quiet(verbose):
-            runner.learn(step)
-        # learn() also saves a checkpoint when it returns: keep only the latest of those (and
-        # every save_interval one), or a run of short learn() calls fills the disk.
-        last = Path(out) / f"model_{runner.current_learning_iteration}.pt" if out else None
-        if extra is not None and extra != last:
-            extra.unlink(missing_ok=True)
-        extra = last if runner.current_learning_iteration % save_interval else None
-        # rsl-rl's learn() re-runs the last iteration index on the next call (its G3 gotcha).
-        runner.current_learning_iteration += 1
-        # Each learn() also opens a new tensorboard event file (and never closes the last):
-        # keep the first writer for the whole run.
-        runner.logger.init_logging_writer = _keep_writer
-        done += step
-        over_time = minutes is not None and time.perf_counter() - start > 60.0 * minutes
-        if eval_every and done % eval_every == 0:
-            display.clear()
-            evaluate_during_training(runner, config, Path(out), done)  # type: ignore[arg-type]
-        if over_time:
-            break
-    display.close()
+    # The latest checkpoint not on the save interval, deleted when a newer one is written.
+    extra = checkpoint if checkpoint is not None and (done - 1) % save_interval else None
+    display.starting("collecting the first rollout (compiling kernels on a first run)")
+    with stop.installed():
+        while done < iterations and hook.stopping is None and not stop.requested:
+            # Each learn() call stops where the track changes or an evaluation is due.
+            step = iterations - done
+            if procedural:
+                every = config.procedural.every
+                if done % every == 0:
+                    _set_tracks(config, env, tracks)
+                step = min(step, every - done % every)
+            if eval_every:
+                step = min(step, eval_every - done % eval_every)
+            stopped = False
+            try:
+                with quiet(verbose):
+                    runner.learn(step)
+            except StopTraining:
+                stopped = True
+            last = runner.current_learning_iteration  # index of the last iteration trained
+            if stopped and out is not None:  # learn() saves only when it runs to its end
+                runner.save(str(out / f"model_{last}.pt"))
+            # learn() saves a checkpoint when it ends: keep only the latest of those (and every
+            # save_interval one), or a run of short learn() calls fills the disk.
+            latest = out / f"model_{last}.pt" if out else None
+            if extra is not None and extra != latest:
+                extra.unlink(missing_ok=True)
+            extra = latest if last % save_interval else None
+            # rsl-rl's learn() re-runs the last iteration index on the next call (its G3
+            # gotcha): the runner's counter is the iterations done.
+            done = runner.current_learning_iteration = last + 1
+            # Each learn() also opens a new tensorboard event file (and never closes the last):
+            # keep the first writer for the whole run.
+            runner.logger.init_logging_writer = _keep_writer
+            if (eval_every and done % eval_every == 0 and hook.stopping is None
+                    and not stop.requested):
+                display.phase(f"evaluating iteration {done}: {config.eval_episodes} lap "
+                              f"attempts and a race")
+                figures = evaluate_during_training(runner, config, out, done,  # type: ignore
+                                                   before_print=display.clear)
+                if curves is not None:
+                    curves.add_evaluation(done, figures)
+                if budget.after_pause() and done < iterations:
+                    hook.stopping = "budget"
+    interrupted = stop.requested or hook.stopping == "interrupted"
+    display.finish("interrupted (Ctrl-C)" if interrupted else
+                   "time budget reached" if hook.stopping == "budget" else "done",
+                   complete=not interrupted)
     env.close()
     if runner.logger.writer is not None:
         runner.logger.writer.close()
+    policy = None
     if out is not None:
-        training = {"iterations": done, "seconds": time.perf_counter() - start}
-        save_policy(runner, config, Path(out) / "policy.pt", training=training)
+        if curves is not None:
+            curves.flush()
+        training = {"iterations": done, "seconds": budget.elapsed()}
+        policy = save_policy(runner, config, out / "policy.pt", training=training)
+        print(plot_curves(out / "curves.csv", out / "curves.png"), flush=True)
+    if interrupted:
+        latest_checkpoint = None if out is None else out / f"model_{done - 1}.pt"
+        raise TrainingInterrupted(done, latest_checkpoint, policy)
     return runner
+
+
+def reward_terms(config: TrainConfig) -> tuple[str, ...]:
+    """The ``reward/<term>`` columns of ``config``'s reward in use: the built-in reward's terms
+    with a non-zero weight, or the DeepRacer reward file's one (``training.curves``)."""
+    import dataclasses
+
+    from h2h_racing.rewards import TERMS
+
+    if config.reward_function is not None:
+        return (REWARD_FUNCTION_TERM,)
+    weights = dataclasses.asdict(config.reward)
+    return tuple(f"reward/{term}" for term in TERMS if weights.get(term, 0.0) != 0.0)
+
+
+def _track_draws(config: TrainConfig, env: Any, done: int) -> np.random.Generator:
+    """The random-track generator of a procedural run, past the draws of the ``done``
+    iterations already trained; a resumed run mid-way through a track's iterations gets that
+    track back."""
+    tracks = np.random.default_rng(config.seed + 1)
+    every = config.procedural.every
+    drawn: list[Any] = []
+    for _ in range(done // every + (1 if done % every else 0)):
+        drawn = [config.procedural.draw(tracks) for _ in range(config.procedural.tracks)]
+    if done % every:
+        _apply_tracks(env, drawn)
+    return tracks
+
+
+def _set_tracks(config: TrainConfig, env: Any, tracks: np.random.Generator) -> None:
+    """Draw the next random tracks of a procedural run and put the env on them."""
+    _apply_tracks(env, [config.procedural.draw(tracks) for _ in range(config.procedural.tracks)])
+
+
+def _apply_tracks(env: Any, drawn: list[Any]) -> None:
+    if isinstance(env, TrackGroups):
+        env.set_tracks(drawn)
+    else:
+        env.set_track(drawn[0])
 
 
 def make_runner(config: TrainConfig, env: Any, log_dir: str | None = None) -> Any:
@@ -168,7 +270,8 @@ def _keep_writer() -> None:
 
 
 def evaluate_during_training(runner: Any, config: TrainConfig, out: str | Path,
-                             iteration: int) -> dict[str, float]:
+                             iteration: int,
+                             before_print: Callable[[], None] | None = None) -> dict[str, float]:
     """Evaluate the runner's current actor, log the figures and record a race.
 
     The actor becomes a ``TrainedPolicy`` straight from memory (no file). On the evaluation
@@ -192,6 +295,8 @@ def evaluate_during_training(runner: Any, config: TrainConfig, out: str | Path,
         config: Its training config.
         out: The run's output folder.
         iteration: Iterations completed (names the recording and steps the log).
+        before_print: Called before the figures' line is printed (takes a progress line off
+            the terminal).
 
     Returns:
         The figures, keyed as logged without the ``Eval/`` prefix.
@@ -238,6 +343,8 @@ def evaluate_during_training(runner: Any, config: TrainConfig, out: str | Path,
         for key, value in scalars.items():
             writer.add_scalar(f"Eval/{key}", value, iteration)
         writer.flush()
+    if before_print is not None:
+        before_print()
     lap = (f"{scalars['mean_lap_time']:.2f} s" if "mean_lap_time" in scalars else "-")
     print(f"eval at iteration {iteration}: laps {100 * figures.lap_completion:.0f} % of "
           f"{figures.episodes}, mean lap {lap}, off track {figures.off_tracks}, race "

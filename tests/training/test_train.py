@@ -22,6 +22,9 @@ from h2h_racing.track_io import list_tracks, load_track
 
 SMALL = TrainConfig(track="oval", num_envs=8, num_steps_per_env=8, hidden_dims=(16, 16))
 
+# pytest's deprecations of how fixtures are written fail here, not in pytest 10.
+pytestmark = pytest.mark.filterwarnings("error::pytest.PytestRemovedIn10Warning")
+
 
 @pytest.fixture(scope="module")
 def trained(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, object]:
@@ -75,17 +78,22 @@ class TestPolicyFile:
         assert {row["agent"] for row in result.rows} == {"car_0", "car_1"}
 
 
+EVAL_CONFIG = dataclasses.replace(SMALL, num_cars=2, learners=1, opponent="pure_pursuit",
+                                  eval_every=1, eval_episodes=2, eval_race_seconds=3.0)
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A run of EVAL_CONFIG (an evaluation after each of its 2 iterations). A module-scoped
+    function, not a class-scoped method: pytest 9 deprecates those (PytestRemovedIn10Warning,
+    an error in this module)."""
+    out = tmp_path_factory.mktemp("eval_run")
+    train(EVAL_CONFIG, iterations=2, out=out)
+    return out
+
+
 class TestEvaluationDuringTraining:
     """Every eval_every iterations: Eval/ figures in the tensorboard log and a race recording."""
-
-    CONFIG = dataclasses.replace(SMALL, num_cars=2, learners=1, opponent="pure_pursuit",
-                                 eval_every=1, eval_episodes=2, eval_race_seconds=3.0)
-
-    @pytest.fixture(scope="class")
-    def run(self, tmp_path_factory: pytest.TempPathFactory) -> Path:
-        out = tmp_path_factory.mktemp("eval_run")
-        train(self.CONFIG, iterations=2, out=out)
-        return out
 
     def test_each_evaluation_records_a_race_of_the_learner_and_its_opponent(
             self, run: Path) -> None:

@@ -1,0 +1,272 @@
+"""A training run a user can watch, stop and resume (issue 37): the output folder is refused,
+overwritten or resumed as asked, curves.csv and curves.png show the reward in use, --minutes
+stops within one iteration of its budget, and Ctrl-C stops at a safe point with one line."""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import torch
+
+from h2h_racing.training import train_progress
+from h2h_racing.training.config import TrainConfig
+from h2h_racing.training.curves import plot_curves, read_curves
+from h2h_racing.training.run_folder import RunFolderError
+from h2h_racing.training.train import make_runner, train
+
+SMALL = TrainConfig(track="oval", num_envs=4, num_steps_per_env=4, hidden_dims=(8, 8),
+                    eval_every=0)
+SAMPLES = 4 * 4  # per iteration: env copies x steps (one learner car)
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "deepracer"
+TINY_FLAGS = ["--track", "oval", "--envs", "4", "--eval-every", "0", "--no-onnx"]
+
+
+def rows(out: Path) -> list[dict[str, str]]:
+    return read_curves(out / "curves.csv")[1]
+
+
+def tags(out: Path) -> set[str]:
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    log = EventAccumulator(str(out))
+    log.Reload()
+    return set(log.Tags()["scalars"])
+
+
+class TestOutputFolder:
+    """An existing --out is refused unless --resume or --overwrite."""
+
+    def test_an_existing_out_is_refused_in_one_line_and_left_as_it_was(
+            self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+        from h2h_racing.cli import main
+
+        out = tmp_path / "run"
+        out.mkdir()
+        (out / "model_4.pt").write_bytes(b"old checkpoint")
+        (out / "notes.txt").write_text("mine")
+        assert main(["train", *TINY_FLAGS, "--iterations", "1", "--out", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1, err
+        assert f"--out {out} already exists" in err
+        assert "--resume to continue it from model_4.pt" in err and "--overwrite" in err
+        assert sorted(p.name for p in out.iterdir()) == ["model_4.pt", "notes.txt"]
+        assert (out / "model_4.pt").read_bytes() == b"old checkpoint"
+
+    def test_an_empty_or_missing_out_starts_a_run(self, tmp_path: Path) -> None:
+        train(SMALL, iterations=1, out=tmp_path)  # tmp_path exists, empty
+        assert (tmp_path / "policy.pt").is_file()
+
+    def test_overwrite_deletes_the_old_runs_files_only(self, tmp_path: Path) -> None:
+        train(SMALL, iterations=3, out=tmp_path)
+        (tmp_path / "notes.txt").write_text("mine")
+        train(SMALL, iterations=2, out=tmp_path, overwrite=True)
+        names = sorted(p.name for p in tmp_path.iterdir())
+        # rsl-rl's model_0 (its save interval) and the latest, model_1: not the old model_2.
+        assert [n for n in names if n.startswith("model_")] == ["model_0.pt", "model_1.pt"]
+        assert len([n for n in names if n.startswith("events.out.tfevents")]) == 1
+        assert [r["iteration"] for r in rows(tmp_path)] == ["1", "2"]
+        assert (tmp_path / "notes.txt").read_text() == "mine"
+
+    def test_bad_combinations_are_refused_before_any_work(self, tmp_path: Path) -> None:
+        with pytest.raises(RunFolderError, match="not both"):
+            train(SMALL, iterations=1, out=tmp_path, resume=True, overwrite=True)
+        with pytest.raises(RunFolderError, match="holds no checkpoint"):
+            train(SMALL, iterations=1, out=tmp_path / "none", resume=True)
+        (tmp_path / "file").write_text("x")
+        with pytest.raises(RunFolderError, match="is a file, not a folder"):
+            train(SMALL, iterations=1, out=tmp_path / "file")
+
+
+class TestResume:
+    """--resume continues from the latest checkpoint, its curves and its iteration count."""
+
+    def test_resume_goes_on_from_the_latest_checkpoint(
+            self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+        train(SMALL, iterations=3, out=tmp_path)
+        first = rows(tmp_path)
+        capsys.readouterr()
+        train(SMALL, iterations=5, out=tmp_path, resume=True)
+        assert "resuming at iteration 3 of 5 from " in capsys.readouterr().out
+        curves = rows(tmp_path)
+        assert [r["iteration"] for r in curves] == ["1", "2", "3", "4", "5"]
+        assert curves[:3] == first  # the first run's rows are kept as they were
+        assert [int(r["steps"]) for r in curves] == [SAMPLES * k for k in range(1, 6)]
+        # The run's clock goes on: the resumed rows come after the first run's time.
+        assert float(curves[3]["seconds"]) > float(curves[2]["seconds"])
+        assert torch.load(tmp_path / "policy.pt", weights_only=True)["training"][
+            "iterations"] == 5
+        # The resumed run's checkpoint replaced the one it started from (off the interval).
+        assert sorted(p.name for p in tmp_path.glob("model_*.pt")) == ["model_0.pt",
+                                                                       "model_4.pt"]
+
+    def test_the_checkpoint_loads_weights_only_into_a_runner(self, tmp_path: Path) -> None:
+        from h2h_racing.training.policy_file import load_checkpoint
+
+        train(SMALL, iterations=2, out=tmp_path)
+        runner = make_runner(SMALL, SMALL.make_env())
+        load_checkpoint(runner, tmp_path / "model_1.pt")
+        saved = torch.load(tmp_path / "model_1.pt", weights_only=True)
+        actor = runner.alg.get_policy().state_dict()
+        assert all(torch.equal(saved["actor_state_dict"][k], actor[k]) for k in actor)
+        assert runner.current_learning_iteration == 1
+        (tmp_path / "model_7.pt").write_bytes(b"not a checkpoint")
+        with pytest.raises(ValueError, match="model_7.pt"):
+            load_checkpoint(runner, tmp_path / "model_7.pt")
+
+    def test_a_finished_run_says_so(self, tmp_path: Path) -> None:
+        train(SMALL, iterations=2, out=tmp_path)
+        with pytest.raises(RunFolderError, match="already trained 2 of --iterations 2"):
+            train(SMALL, iterations=2, out=tmp_path, resume=True)
+
+
+class TestCurves:
+    """curves.csv and curves.png beside the tensorboard log, with the reward in use."""
+
+    def test_built_in_reward_columns_match_the_tensorboard_log(self, tmp_path: Path) -> None:
+        pytest.importorskip("tensorboard")
+        from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+        # Rollouts of 16 steps: episodes (about 20 steps) end, so returns are logged.
+        train(dataclasses.replace(SMALL, num_steps_per_env=16), iterations=3, out=tmp_path)
+        header, curves = read_curves(tmp_path / "curves.csv")
+        # RewardConfig's non-zero weights: progress, off_track, crash, overtake.
+        assert header[:5] == ["iteration", "steps", "seconds", "return", "episode_length"]
+        assert [c for c in header if c.startswith("reward/")] == [
+            "reward/progress", "reward/off_track", "reward/crash", "reward/overtake"]
+        assert "lap_completion" in header and "eval_lap_completion" in header
+        log = EventAccumulator(str(tmp_path))
+        log.Reload()
+        returns = {e.step: e.value for e in log.Scalars("Train/mean_reward")}
+        progress = {e.step: e.value for e in log.Scalars("reward/progress")}
+        assert sorted(returns) == [int(r["iteration"]) - 1 for r in curves if r["return"]]
+        # The terms only where episodes ended that iteration (the return: the last 100).
+        assert sorted(progress) == [int(r["iteration"]) - 1 for r in curves
+                                    if r["reward/progress"]]
+        assert progress
+        for row in curves:  # tensorboard's step: the iteration's index, from 0
+            step = int(row["iteration"]) - 1
+            if row["return"]:
+                assert float(row["return"]) == pytest.approx(returns[step], rel=1e-5)
+            if row["reward/progress"]:
+                assert float(row["reward/progress"]) == pytest.approx(progress[step], rel=1e-5)
+        png = (tmp_path / "curves.png").read_bytes()
+        assert png[:8] == b"\x89PNG\r\n\x1a\n"
+
+    def test_a_deepracer_reward_file_is_the_curves_reward(self, tmp_path: Path) -> None:
+        pytest.importorskip("tensorboard")
+        config = dataclasses.replace(
+            SMALL, reward_function=str(EXAMPLES / "follow_centre_line.py"))
+        train(config, iterations=2, out=tmp_path)
+        header, curves = read_curves(tmp_path / "curves.csv")
+        assert [c for c in header if c.startswith("reward/")] == ["reward/reward_function"]
+        # follow_centre_line pays 1, 0.5, 0.1 or 1e-3 a step: its mean lies between.
+        for row in curves:
+            assert 1e-3 <= float(row["reward/reward_function"]) <= 1.0
+        logged = tags(tmp_path)
+        assert "reward/reward_function" in logged
+        assert not {"reward/progress", "reward/crash", "reward/off_track"} & logged
+
+    def test_without_matplotlib_the_plot_is_skipped_in_one_line(
+            self, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+        path = tmp_path / "curves.csv"
+        with path.open("w", newline="") as file:
+            writer = csv.writer(file)
+            writer.writerow(["iteration", "steps", "return"])
+            writer.writerow([1, 16, -3.5])
+        monkeypatch.setitem(sys.modules, "matplotlib", None)  # import matplotlib fails
+        line = plot_curves(path, tmp_path / "curves.png")
+        assert line.startswith("curves plot skipped: matplotlib is not installed")
+        assert "\n" not in line and not (tmp_path / "curves.png").exists()
+
+
+class TestBudget:
+    """--minutes stops within one iteration of its budget, and not after it."""
+
+    def test_stops_before_the_iteration_that_would_end_past_the_budget(
+            self, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+        # A clock on which every iteration takes 20 s: the 60 s budget holds 3 iterations.
+        # Before, train checked the time every 10 iterations, so a budget ran over by up to 9.
+        from rsl_rl.algorithms import PPO
+
+        iterations = {"count": 0}
+        update = PPO.update
+
+        def counted(self: PPO) -> dict[str, float]:
+            iterations["count"] += 1
+            return update(self)
+
+        monkeypatch.setattr(PPO, "update", counted)
+        monkeypatch.setattr(train_progress, "_now", lambda: 20.0 * iterations["count"])
+        runner = train(SMALL, iterations=12, out=tmp_path, minutes=1.0)
+        assert runner.current_learning_iteration == 3
+        assert [r["seconds"] for r in rows(tmp_path)] == ["20", "40", "60"]
+
+    def test_budget_rules(self, monkeypatch: pytest.MonkeyPatch) -> None:
+        now = {"t": 100.0}
+        monkeypatch.setattr(train_progress, "_now", lambda: now["t"])
+        budget = train_progress.Budget(minutes=1.0, spent=30.0)  # a resumed run's 30 s
+        now["t"] = 110.0
+        assert budget.tick() == (40.0, False)  # 40 + 10 <= 60
+        now["t"] = 120.0
+        assert budget.tick() == (50.0, False)  # 50 + 10 = 60: the next ends on the budget
+        now["t"] = 125.0  # an evaluation of 5 s leaves 5 s: no room for a 10 s iteration
+        assert budget.after_pause()
+        assert train_progress.Budget(minutes=0.5, spent=30.0).spent_all()
+        assert not train_progress.Budget(minutes=None, spent=1e9).spent_all()
+
+
+def _start(command: list[str], cwd: Path) -> subprocess.Popen[str]:
+    # Python's own SIGINT handling in the child, whatever this process has installed.
+    return subprocess.Popen([sys.executable, "-m", "h2h_racing.cli", *command], cwd=cwd,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_at_an_iteration_with_one_line_and_resumes(tmp_path: Path) -> None:
+    """The CLI in a subprocess: SIGINT once training runs; exit 130, one line naming the kept
+    checkpoint and the command that resumes, no traceback; that command resumes."""
+    out = tmp_path / "run"
+    child = _start(["train", *TINY_FLAGS, "--iterations", "100000", "--out", str(out)],
+                   tmp_path)
+    try:
+        deadline = time.monotonic() + 240
+        while not (out / "curves.csv").is_file() or len(rows(out)) < 1:
+            assert child.poll() is None, child.communicate()
+            assert time.monotonic() < deadline, "no iteration in 240 s"
+            time.sleep(0.2)
+        child.send_signal(signal.SIGINT)
+        stdout, stderr = child.communicate(timeout=60)
+    finally:
+        if child.poll() is None:
+            child.kill()
+    assert child.returncode == 130, stderr
+    assert "Traceback" not in stderr and "Exception ignored" not in stderr
+    lines = [line for line in stderr.splitlines() if line.startswith("interrupted")]
+    assert len(lines) == 1, stderr
+    match = re.fullmatch(r"interrupted after iteration (\d+): kept (\S+model_(\d+)\.pt) and "
+                         r"(\S+policy\.pt) .*; resume with: (.+)", lines[0])
+    assert match, lines[0]
+    done, checkpoint, index = int(match.group(1)), Path(match.group(2)), int(match.group(3))
+    assert index == done - 1 and checkpoint.is_file()
+    assert [int(r["iteration"]) for r in rows(out)] == list(range(1, done + 1))
+    command = match.group(5)
+    assert command.startswith("h2h-racing train ") and command.endswith(" --resume")
+    # The command it gives resumes (with a cap just above, so that it ends).
+    words = command.split()[1:]
+    words[words.index("--iterations") + 1] = str(done + 1)
+    resumed = subprocess.run([sys.executable, "-m", "h2h_racing.cli", *words, "--no-progress"],
+                             cwd=tmp_path, capture_output=True, text=True, timeout=240,
+                             env={**os.environ})
+    assert resumed.returncode == 0, resumed.stderr
+    assert f"resuming at iteration {done} of {done + 1} from {checkpoint}" in resumed.stdout
+    assert [int(r["iteration"]) for r in rows(out)] == list(range(1, done + 2))
