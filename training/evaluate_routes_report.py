@@ -85,8 +85,10 @@ def laps_summary(results: Sequence[RouteLaps], failures: Sequence[RouteFailure],
                  baseline: str | None) -> tuple[list[str], dict[str, Any]]:
     """The summary lines of a time trial over routes, and its figures for ``--json``."""
     at_target = [r for r in results if r.policy.lap_completion >= LAP_TARGET - 1e-12]
+    # Fewest laps first, then the slowest against the baseline, then against the reference.
     order = sorted(results, key=lambda r: (r.policy.lap_completion,
-                                           -np.nan_to_num(r.vs_baseline, nan=-np.inf)))
+                                           -np.nan_to_num(r.vs_baseline, nan=-np.inf),
+                                           -np.nan_to_num(r.vs_reference, nan=-np.inf)))
     worst = order[:max(WORST, len(results) - len(at_target))]
     lines = [f"summary: {len(at_target)} of {len(results)} routes at >= "
              f"{100 * LAP_TARGET:.0f} % laps" + _failures_text(failures)]
