@@ -23,7 +23,7 @@ import pytest
 from h2h_racing.cli import main
 from h2h_racing.training.evaluate import Evaluation, RaceEvaluation, evaluate_races
 from h2h_racing.training.evaluate_routes import (RouteFailure, RouteLaps, RouteRaces,
-                                                 RouteSource, RouteTask, route_sources,
+                                                 RouteTask, route_sources,
                                                  run_routes)
 from h2h_racing.training.evaluate_routes_report import (laps_summary, missed_targets,
                                                         races_summary)
@@ -286,3 +286,21 @@ def _alive(pids: list[str]) -> list[str]:
         if "\nState:\tZ" not in status:
             alive.append(pid)
     return alive
+
+
+@pytest.mark.skipif(not ROUTES.is_dir(), reason="../shared/data/deepracer_tracks not beside "
+                                                "the clone (README's Tests section)")
+def test_the_deepracer_routes_folder(tmp_path: Path,
+                                     capsys: pytest.CaptureFixture[str]) -> None:
+    """The 40 real routes are read as 40 routes; two of them, evaluated as a folder, lap."""
+    sources = route_sources([str(ROUTES)])
+    assert len(sources.routes) == 40 and not sources.ignored
+    assert {Path(s.source).suffix for s in sources.routes} == {".npy"}
+    # racing_line laps every route clean alone (policies/README, experiments/routes).
+    folder = tmp_path / "two"
+    folder.mkdir()
+    for name in ("Oval_track.npy", "reInvent2019_wide.npy"):
+        (folder / name).symlink_to((ROUTES / name).resolve())
+    assert main(["evaluate", "--policy", "racing_line", "--track", str(folder), "--episodes",
+                 "2", "--jobs", "1", "--baseline", "", "--no-progress"]) == 0
+    assert "summary: 2 of 2 routes at >= 95 % laps" in capsys.readouterr().out
