@@ -119,6 +119,18 @@ class RouteTask:
     baseline: str | None = "racing_line"
     """Driver evaluated on the same starts (time trial); None: none."""
 
+    def __post_init__(self) -> None:
+        from h2h_racing.training.evaluate import RACE_TYPE_CHOICES
+
+        kinds = ("time_trial", *RACE_TYPE_CHOICES)
+        if self.race_type not in kinds:
+            raise ValueError(f"race_type must be one of {', '.join(kinds)}, got "
+                             f"{self.race_type!r}")
+        for name in ("episodes", "races", "laps"):
+            value = getattr(self, name)
+            if not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
+                raise ValueError(f"{name} must be a whole number >= 1, got {value!r}")
+
 
 @dataclass(frozen=True)
 class RouteLaps:

@@ -304,3 +304,12 @@ def test_the_deepracer_routes_folder(tmp_path: Path,
     assert main(["evaluate", "--policy", "racing_line", "--track", str(folder), "--episodes",
                  "2", "--jobs", "1", "--baseline", "", "--no-progress"]) == 0
     assert "summary: 2 of 2 routes at >= 95 % laps" in capsys.readouterr().out
+
+
+def test_a_task_is_checked() -> None:
+    source = route_sources(["oval"]).routes[0]
+    with pytest.raises(ValueError, match="race_type must be one of time_trial, "
+                                         "object_avoidance, head_to_bot, got 'head_to_head'"):
+        RouteTask(source, "racing_line", race_type="head_to_head")
+    with pytest.raises(ValueError, match="episodes must be a whole number >= 1, got 0"):
+        RouteTask(source, "racing_line", episodes=0)
