@@ -18,6 +18,9 @@ Mode = Literal["auto", "off"]
 MODES: tuple[Mode, ...] = ("auto", "off")
 WIDTH = 30
 """Characters of the bar itself."""
+NO_ETA = -1.0
+"""An ``eta`` that shows none: the time left is not known yet (workers starting, kernels
+compiling), and extrapolating from it would mislead."""
 
 
 def clock(seconds: float) -> str:
@@ -39,10 +42,12 @@ class Progress:
             is true.
         delay: Wall seconds before the line first appears (short jobs show none).
         interval: Shortest time between two redraws on a terminal [s].
+        elapsed_before: Time the job ran before this display started [s] (a resumed league
+            counts its earlier runs): shown in the elapsed time.
     """
 
     def __init__(self, label: str, mode: Mode = "auto", stream: TextIO | None = None,
-                 delay: float = 0.0, interval: float = 0.1) -> None:
+                 delay: float = 0.0, interval: float = 0.1, elapsed_before: float = 0.0) -> None:
         if mode not in MODES:
             raise ValueError(f"progress mode must be one of {MODES}, got {mode!r}")
         self.label = label
@@ -51,6 +56,7 @@ class Progress:
         self.terminal = bool(getattr(self.stream, "isatty", lambda: False)())
         self.delay = delay
         self.interval = interval
+        self.elapsed_before = float(elapsed_before)
         self.start = time.monotonic()
         self._last_draw = -math.inf
         self._tenths = -1
@@ -59,10 +65,10 @@ class Progress:
         self._open = False
 
     def line(self, fraction: float, info: str = "", eta: float | None = None) -> str:
-        """The line for ``fraction`` (in [0, 1]) done: ``eta`` [s] left if given, else
-        extrapolated from the time so far."""
+        """The line for ``fraction`` (in [0, 1]) done: ``eta`` [s] left if given (none for
+        ``NO_ETA``), else extrapolated from the time so far."""
         fraction = min(max(float(fraction), 0.0), 1.0)
-        elapsed = time.monotonic() - self.start
+        elapsed = time.monotonic() - self.start + self.elapsed_before
         filled = round(fraction * WIDTH)
         text = f"{self.label} {100 * fraction:3.0f}% |{'#' * filled}{'.' * (WIDTH - filled)}|"
         if info:
@@ -70,7 +76,7 @@ class Progress:
         text += f"  {clock(elapsed)}"
         if eta is None and 0.02 <= fraction < 1.0:  # before that it says little
             eta = elapsed / fraction * (1.0 - fraction)
-        if eta is not None and fraction < 1.0:
+        if eta is not None and eta >= 0.0 and fraction < 1.0:
             text += f" ETA {clock(eta)}"
         return text
 

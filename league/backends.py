@@ -1,8 +1,15 @@
 """Where league work runs: this process, local worker processes, or a Ray cluster.
 
-A backend has one method, ``map(fn, jobs)``, that yields ``(job, fn(job))`` pairs as jobs
-finish (in any order). ``fn`` must be a module-level function and jobs picklable. The caller
-stores each result as it arrives, so whatever finished before a crash is kept.
+A backend has one method, ``map(fn, jobs, stop=None)``, that yields ``(job, fn(job))`` pairs as
+jobs finish (in any order). ``fn`` must be a module-level function and jobs picklable. The
+caller stores each result as it arrives, so whatever finished before a crash is kept. When
+``stop()`` turns true (a Ctrl-C, a spent time budget), ``map`` raises ``JobsStopped`` within
+``POLL`` seconds instead of waiting for the jobs still running; ``close(now=True)`` then ends
+them (their results are lost, and run again when the command is resumed).
+
+Worker processes ignore Ctrl-C (``league.stopping``): the command that started them decides
+what stops and when, and a worker interrupted inside pymunk's cffi callbacks printed
+"Exception ignored from cffi callback".
 
 A worker that dies (killed, out of memory) loses no job: its jobs are run again, up to
 ``max_retries`` times, and because every result is stored under its match key, a job that
@@ -18,23 +25,40 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, TypeVar
 
+from h2h_racing.league.stopping import ignore_sigint, sigint_ignored
 from h2h_racing.lifeline import die_with_parent, started_from_main_thread
 
 J = TypeVar("J")
 R = TypeVar("R")
 
 BACKENDS = ("inprocess", "local", "ray")
+POLL = 0.2
+"""How often a waiting ``map`` checks its ``stop`` [s]."""
+
+
+class JobsStopped(Exception):
+    """``map``'s ``stop()`` turned true before every job had finished."""
+
+
+def _worker_init(parent_pid: int, death_signal: bool) -> None:
+    """Initializer of a local worker: ignore Ctrl-C, die with the parent."""
+    ignore_sigint()
+    die_with_parent(parent_pid, death_signal)
 
 
 class InProcessBackend:
     """Run jobs one after another in this process (tests, debugging, one-core machines)."""
 
-    def map(self, fn: Callable[[J], R], jobs: Sequence[J]) -> Iterator[tuple[J, R]]:
-        """Yield ``(job, fn(job))`` in order."""
+    def map(self, fn: Callable[[J], R], jobs: Sequence[J],
+            stop: Callable[[], bool] | None = None) -> Iterator[tuple[J, R]]:
+        """Yield ``(job, fn(job))`` in order; ``stop`` is checked before each job (a running
+        job finishes first)."""
         for job in jobs:
+            if stop is not None and stop():
+                raise JobsStopped
             yield job, fn(job)
 
-    def close(self) -> None:
+    def close(self, now: bool = False) -> None:
         """Nothing to release."""
 
 
@@ -58,8 +82,10 @@ class LocalBackend:
         self.max_retries = max_retries
         self._pool: cf.ProcessPoolExecutor | None = None
 
-    def map(self, fn: Callable[[J], R], jobs: Sequence[J]) -> Iterator[tuple[J, R]]:
-        """Yield ``(job, fn(job))`` as jobs finish.
+    def map(self, fn: Callable[[J], R], jobs: Sequence[J],
+            stop: Callable[[], bool] | None = None) -> Iterator[tuple[J, R]]:
+        """Yield ``(job, fn(job))`` as jobs finish; raise ``JobsStopped`` when ``stop()``
+        turns true (checked every ``POLL`` seconds), leaving the running jobs to ``close``.
 
         The worker processes stay up between calls (until ``close``), so state a job function
         caches in its process (a league learner's runner) is found again by later jobs.
@@ -72,19 +98,29 @@ class LocalBackend:
                 # to that thread, so it is only armed when that is the main thread.
                 self._pool = cf.ProcessPoolExecutor(
                     self.workers, mp_context=multiprocessing.get_context("spawn"),
-                    initializer=die_with_parent,
+                    initializer=_worker_init,
                     initargs=(os.getpid(), started_from_main_thread()))
-            futures = {self._pool.submit(fn, jobs[i]): i for i in pending}
+            # The pool spawns its workers on submit: they start with SIGINT ignored.
+            with sigint_ignored():
+                futures = {self._pool.submit(fn, jobs[i]): i for i in pending}
             broken = False
-            for future in cf.as_completed(futures):
-                index = futures[future]
-                try:
-                    result = future.result()
-                except BrokenProcessPool:
-                    broken = True
-                    continue
-                pending.remove(index)
-                yield jobs[index], result
+            waiting = set(futures)
+            while waiting:
+                if stop is not None and stop():
+                    for future in waiting:
+                        future.cancel()
+                    raise JobsStopped
+                finished, waiting = cf.wait(waiting, timeout=POLL,
+                                            return_when=cf.FIRST_COMPLETED)
+                for future in sorted(finished, key=futures.__getitem__):
+                    index = futures[future]
+                    try:
+                        result = future.result()
+                    except BrokenProcessPool:
+                        broken = True
+                        continue
+                    pending.remove(index)
+                    yield jobs[index], result
             if broken:
                 self._pool.shutdown(wait=False, cancel_futures=True)
                 self._pool = None
@@ -95,11 +131,18 @@ class LocalBackend:
                             f"job {index} lost its worker {attempts[index]} times; giving up "
                             f"(max_retries={self.max_retries}): {jobs[index]!r}")
 
-    def close(self) -> None:
-        """Stop the worker processes."""
-        if self._pool is not None:
-            self._pool.shutdown(wait=True, cancel_futures=True)
-            self._pool = None
+    def close(self, now: bool = False) -> None:
+        """Stop the worker processes: after their running jobs, or with ``now`` at once
+        (SIGTERM; a stopped command does not wait for work it will not store)."""
+        if self._pool is None:
+            return
+        if now:
+            # The executor has no public way to end running jobs; its processes are these.
+            for process in list(getattr(self._pool, "_processes", {}).values()):
+                if process.is_alive():
+                    process.terminate()
+        self._pool.shutdown(wait=True, cancel_futures=True)
+        self._pool = None
 
 
 LOOPBACK = "127.0.0.1"
@@ -162,20 +205,32 @@ class RayBackend:
         self.timeout = timeout
         self.max_retries = max_retries
 
-    def map(self, fn: Callable[[J], R], jobs: Sequence[J]) -> Iterator[tuple[J, R]]:
-        """Yield ``(job, fn(job))`` as Ray tasks finish."""
+    def map(self, fn: Callable[[J], R], jobs: Sequence[J],
+            stop: Callable[[], bool] | None = None) -> Iterator[tuple[J, R]]:
+        """Yield ``(job, fn(job))`` as Ray tasks finish; on ``stop()`` cancel the rest and
+        raise ``JobsStopped``."""
+        import time
+
         ray = self._ray
         task = ray.remote(num_cpus=self.cpus_per_task, max_retries=self.max_retries)(fn)
         refs = {task.remote(job): job for job in jobs}
+        last = time.monotonic()
         while refs:
-            ready, _ = ray.wait(list(refs), num_returns=1, timeout=self.timeout)
+            if stop is not None and stop():
+                for ref in refs:
+                    ray.cancel(ref, force=True)
+                raise JobsStopped
+            ready, _ = ray.wait(list(refs), num_returns=1, timeout=POLL)
             if not ready:
-                raise TimeoutError(f"no Ray task finished within {self.timeout} s; "
-                                   f"{len(refs)} jobs still pending")
+                if time.monotonic() - last > self.timeout:
+                    raise TimeoutError(f"no Ray task finished within {self.timeout} s; "
+                                       f"{len(refs)} jobs still pending")
+                continue
+            last = time.monotonic()
             ref = ready[0]
             yield refs.pop(ref), ray.get(ref, timeout=self.timeout)
 
-    def close(self) -> None:
+    def close(self, now: bool = False) -> None:
         """Shut down the local Ray this backend started."""
         if self._started:
             self._ray.shutdown()

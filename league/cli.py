@@ -4,9 +4,12 @@
                           [--schedule round_robin|swiss] [--league FILE] [--name NAME]
                           [--backend inprocess|local|ray] [--workers N] [--address ADDR]
     h2h-racing league train --config recommended|smoke|FILE.toml [--out runs/leagues/NAME]
-                          [--minutes M] [--backend ...]
+                          [--minutes M [--this-run]] [--backend ...]
     h2h-racing league table --league FILE [--context PREFIX]
     h2h-racing league plot --league FILE [--out DIR]
+
+Ctrl-C stops ``tournament`` and ``league train`` with one line that says what was kept and
+the command that resumes, exit status 130 (``league.stopping``).
 """
 
 from __future__ import annotations
@@ -20,7 +23,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from h2h_racing.progress import Progress, add_progress_flag, progress_mode
+from h2h_racing.progress import NO_ETA, Progress, add_progress_flag, progress_mode
 
 DEFAULT_LEAGUE = "runs/league.sqlite"
 LEAGUE_FILE_HELP = "league file (SQLite; a league run writes runs/leagues/NAME/league.sqlite)"
@@ -51,8 +54,30 @@ def _add_backend_args(parser: argparse.ArgumentParser, default: str) -> None:
 
 
 def _races_progress(progress: Progress) -> Callable[[int, int], None]:
-    """``run_tournament``'s progress callback drawing ``progress``."""
-    return lambda done, total: progress.update(done / max(total, 1), f"{done}/{total} races")
+    """``run_tournament``'s progress callback drawing ``progress``.
+
+    The ETA is extrapolated from the races finished after the first ones: those carry the
+    workers' start and the kernels' compilation, which made ETAs several times the real time;
+    until then the line says ``starting`` and shows none. The bar stops at 99 % when every
+    race is run (the ratings are fitted then): the command shows 100 % when it is done.
+    """
+    first: list[float] = []  # (time, races) when the first job finished
+
+    def show(done: int, total: int) -> None:
+        now = time.monotonic()
+        eta: float = NO_ETA
+        info = f"{done}/{total} races"
+        if done >= total:
+            info += ", rating"
+        elif not first or done <= first[1]:
+            if done and not first:
+                first[:] = [now, done]
+            info += ", starting"
+        else:
+            eta = (total - done) * (now - first[0]) / (done - first[1])
+        progress.update(min(done / max(total, 1), 0.99), info, eta=eta)
+
+    return show
 
 
 def _exit_on_sigterm() -> None:
@@ -89,24 +114,51 @@ def _league_errors(command: Callable[[argparse.Namespace], int]
 
 
 def _cmd_tournament(args: argparse.Namespace) -> int:
+    from h2h_racing.league.backends import JobsStopped
+    from h2h_racing.league.stopping import EXIT_INTERRUPTED, StopSwitch, resume_command
     from h2h_racing.league.store import LeagueStore
     from h2h_racing.league.tournament import TournamentConfig, run_tournament
 
     _exit_on_sigterm()
+    counts = [0, 0]  # races stored, races in all (the progress callback's last call)
+    resume = resume_command(args, args.parser, ("tournament",))
+
+    def hard_stop() -> str:
+        return (f"tournament {args.name!r} stopped at once (Ctrl-C): {counts[0]} of "
+                f"{counts[1] or '?'} races stored in {args.league}; to play the rest: {resume}")
 
     config = TournamentConfig(players=args.players, tracks=args.tracks, races=args.races,
                               laps=args.laps, field_races=args.field_races,
                               schedule=args.schedule, rounds=args.rounds, seed=args.seed,
                               name=args.name, anchor=args.anchor)
-    backend = _backend(args)
     start = time.perf_counter()
     progress = Progress("tournament", mode=progress_mode(args))
+    show = _races_progress(progress)
+
+    def shown(done: int, total: int) -> None:
+        counts[:] = [done, total]
+        show(done, total)
+
+    stop = StopSwitch(hard_stop=hard_stop).install()
+    backend = None
     try:
+        backend = _backend(args)
         with LeagueStore(args.league) as store:
-            report = run_tournament(config, store, backend, progress=_races_progress(progress))
+            report = run_tournament(config, store, backend, progress=shown,
+                                    stop=lambda: stop.requested)
+        progress.update(1.0, f"{counts[0]}/{counts[1]} races, rated", force=True)
+    except JobsStopped:
+        report = None
     finally:
-        backend.close()
+        if backend is not None:
+            backend.close(now=stop.requested)
         progress.close()
+        stop.uninstall()
+    if report is None:
+        print(f"tournament {config.name!r} stopped (Ctrl-C): {counts[0]} of "
+              f"{counts[1] or '?'} races stored in {args.league} (a race is stored whole or "
+              f"not at all); to play the rest: {resume}", file=sys.stderr)
+        return EXIT_INTERRUPTED
     print(f"tournament {config.name!r}: {report.ran} races run, {report.skipped} already in "
           f"{args.league}, {time.perf_counter() - start:.1f} s")
     print(report.table())
@@ -116,12 +168,14 @@ def _cmd_tournament(args: argparse.Namespace) -> int:
 def _cmd_league_train(args: argparse.Namespace) -> int:
     import dataclasses
 
+    from h2h_racing.configs import resolve_config
     from h2h_racing.league.config import LeagueConfig
-    from h2h_racing.league.selfplay import League
+    from h2h_racing.league.selfplay import STOP_FILE, League
+    from h2h_racing.league.stopping import EXIT_INTERRUPTED, StopSwitch, resume_command
+    from h2h_racing.league.store import LeagueStore
+    from h2h_racing.league.table import table_text
 
     _exit_on_sigterm()
-    from h2h_racing.configs import resolve_config
-
     try:
         config = LeagueConfig.from_toml(resolve_config(args.config, "league"))
     except FileNotFoundError as err:
@@ -135,61 +189,81 @@ def _cmd_league_train(args: argparse.Namespace) -> int:
         config = dataclasses.replace(config, seed=args.seed)
         default_out = default_out.with_name(f"{config.name}-seed{args.seed}")
     out = Path(args.out or default_out)
-    league = League(config, out, backend=_backend(args), progress=progress_mode(args))
-    try:
-        league.run()
-        print(f"league {config.name!r} in {out}: {league.league_steps() / 1e6:.2f} M steps, "
-              f"{len(league.snapshots())} snapshots")
-        from h2h_racing.league.ratings import format_standings
+    out.mkdir(parents=True, exist_ok=True)
+    league: League | None = None
 
-        rows = league.standings()
-        print(format_standings(rows))
-        print(_trends(league.store, rows))
-    finally:
-        league.close()
+    def resume() -> str:
+        # The same budget, on the league's clock: a --this-run budget becomes the league
+        # time it ends at.
+        minutes = args.minutes
+        if args.this_run and league is not None:
+            minutes = round(league.display.budget / 60.0 + 0.05, 1)
+        return resume_command(args, args.parser, ("league", "train"),
+                              {"out": str(out), "minutes": minutes, "this_run": False})
+
+    def hard_stop() -> str:
+        return (f"[league {config.name}] stopped at once (Ctrl-C): the running round's "
+                f"training and running races are lost, everything stored in "
+                f"{out / 'league.sqlite'} is kept; to resume: {resume()}")
+
+    backend = _backend(args)
+    stop = StopSwitch(out / STOP_FILE, hard_stop=hard_stop).install()
+    try:
+        league = League(config, out, backend=backend, progress=progress_mode(args),
+                        this_run=args.this_run, stop=stop)
+        ended = "stopped" if stop.requested else league.run()
+    except BaseException:
+        if league is not None:
+            league.close(now=True)
+        else:
+            backend.close(now=True)
+        stop.uninstall()
+        raise
+    league.close(now=True)  # race jobs a stop or the budget left running are not waited for
+    stop.uninstall()
+    path = out / "league.sqlite"
+    if ended == "stopped":
+        line = (f"[league {config.name}] stopped (Ctrl-C) after {league.display.elapsed() / 60:.1f}"
+                f" min of league time: kept every finished round in {path}"
+                + (f", and {league.kept}" if league.kept else "") + f"; to resume: {resume()}")
+        league.display.log(line)
+        print(line, file=sys.stderr)
+        return EXIT_INTERRUPTED
+    with LeagueStore(path) as store:
+        rounds = int(store.meta().get("round", "0"))
+        steps = sum(float(v) for k, v in store.meta().items() if k.endswith(".steps"))
+        snapshots = len(store.players("snapshot"))
+        table = table_text(store) if store.count_matches() else ""
+    why = {"rounds": "its round cap", "budget": "its time budget"}[ended]
+    summary = (f"league {config.name!r} in {out}: ended at {why}, {rounds} rounds, "
+               f"{league.display.elapsed() / 60:.1f} min, {steps / 1e6:.2f} M steps, "
+               f"{snapshots} snapshots" + (f"; {league.kept}" if league.kept else ""))
+    league.display.log(summary)
+    print(summary)
+    if table:
+        print(f"ratings of every player in {path} (the table `h2h-racing league table "
+              f"--league {path}` prints):")
+        print(table)
     return 0
 
 
 def _cmd_league_table(args: argparse.Namespace) -> int:
-    from h2h_racing.league.ratings import format_standings, standings
     from h2h_racing.league.store import LeagueStore
+    from h2h_racing.league.table import table_text
 
     if not Path(args.league).is_file():
         raise FileNotFoundError(f"league file not found: {args.league}")
     with LeagueStore(args.league) as store:
-        races = store.races(context_prefix=args.context)
-        if not races:
-            raise ValueError(f"{args.league} has no finished matches"
-                             + (f" with context {args.context!r}" if args.context else ""))
-        players = {p for race in races for p in race}
-        anchor = args.anchor if args.anchor in players else None
-        # Canonical race order and the fixed bootstrap seed: the table is the same whatever
-        # order the matches were stored in, and equals the one `tournament` printed.
-        rows = standings(races, anchor=anchor, n_boot=args.boot)
-        trends = _trends(store, rows)
-    print(f"{len(races)} races" + (f", anchor {anchor} = 1000" if anchor else ""))
-    print(format_standings(rows))
-    print(trends)
+        text = table_text(store, context=args.context, anchor=args.anchor, n_boot=args.boot)
+    print(text)
     return 0
-
-
-def _trends(store: Any, rows: Any) -> str:
-    """The snapshot-rating trends of each learner lineage, as text ('' without snapshots)."""
-    from h2h_racing.league.ratings import format_trends, rating_trends
-
-    snapshots = [(p.name, p.parent or p.name, p.training_steps)
-                 for p in store.players("snapshot")]
-    trends = rating_trends(snapshots, {row.player: row.rating for row in rows})
-    if not trends:
-        return ""
-    return ("\nsnapshot ratings over training (rank correlation of rating with training "
-            "steps):\n" + format_trends(trends))
 
 
 def _cmd_league_plot(args: argparse.Namespace) -> int:
     from h2h_racing.league.plots import plot_ratings, plot_standings, plot_win_matrix
     from h2h_racing.league.ratings import pairwise
     from h2h_racing.league.store import LeagueStore
+    from h2h_racing.league.table import table_rows
 
     if not Path(args.league).is_file():
         raise FileNotFoundError(f"league file not found: {args.league}")
@@ -199,10 +273,19 @@ def _cmd_league_plot(args: argparse.Namespace) -> int:
         history = store.rating_history("bradley_terry")
         players = {p.name: p for p in store.players()}
         races = store.races(context_prefix=args.context)
+        # The ratings of `league table` (every player of every race), not a second fit.
+        rows = table_rows(store, context=args.context)[0]
+        meta = store.meta()
+    if rows:
+        history = {row.player: [(0.0, row.rating, row.low, row.high)] for row in rows}
     written = []
     if history:
         path = out / "ratings.png"
-        if any(player.parent for player in players.values()):
+        trained = any(p.parent or p.kind == "learner" for p in players.values())
+        if rows and trained:
+            steps = {name: float(meta.get(f"{name}.steps", "0")) for name in players}
+            plot_ratings(table_series(rows, players, steps), path)
+        elif trained:  # ratings stored by an older league, without races to rate
             plot_ratings(rating_series(history, players), path)
         else:
             # A tournament: nobody trained, so the ratings have no time axis to be drawn over.
@@ -223,6 +306,28 @@ def _cmd_league_plot(args: argparse.Namespace) -> int:
     for path in written:
         print(path)
     return 0
+
+
+def table_series(rows: Any, players: dict[str, Any], steps: dict[str, float]
+                 ) -> dict[str, list[tuple[float, float, float, float]]]:
+    """Every player of ``league table``'s ``rows`` over training time: one line per learner,
+    through its snapshots at the training steps they were frozen at and ending at the learner
+    itself at its ``steps`` now; the other players (anchors, policies) flat across."""
+    series: dict[str, list[tuple[float, float, float, float]]] = {}
+    flat = []
+    for row in rows:
+        player = players.get(row.player)
+        point = (row.rating, row.low, row.high)
+        if player is not None and player.parent:
+            series.setdefault(player.parent, []).append((float(player.training_steps), *point))
+        elif player is not None and player.kind == "learner":
+            series.setdefault(player.name, []).append((steps.get(player.name, 0.0), *point))
+        else:
+            flat.append((row.player, point))
+    end = max((x for points in series.values() for x, *_ in points), default=0.0) or 1.0
+    for name, point in flat:
+        series[name] = [(0.0, *point), (end, *point)]
+    return {name: sorted(points) for name, points in series.items()}
 
 
 def matrix_players(races: list[dict[str, int]],
@@ -300,7 +405,7 @@ def add_commands(sub: Any) -> None:
     tour.add_argument("--league", default=DEFAULT_LEAGUE, help="league file (SQLite)")
     _add_backend_args(tour, "local")
     add_progress_flag(tour)
-    tour.set_defaults(func=_league_errors(_cmd_tournament))
+    tour.set_defaults(func=_league_errors(_cmd_tournament), parser=tour)
 
     league = sub.add_parser("league", help="self-play league: train, table, plot")
     lsub = league.add_subparsers(dest="league_command", required=True)
@@ -311,7 +416,12 @@ def add_commands(sub: Any) -> None:
                             "(a one-minute look)")
     train.add_argument("--out", default=None, help="league folder (default runs/leagues/NAME)")
     train.add_argument("--minutes", type=float, default=None,
-                       help="override the time budget (default: the config's minutes)")
+                       help="the league's time budget in minutes, counted over all its runs "
+                            "(a resumed league goes on until its total reaches it; default: "
+                            "the config's minutes)")
+    train.add_argument("--this-run", action="store_true",
+                       help="count --minutes (or the config's minutes) from this run's start "
+                            "instead of over all the league's runs (default: off)")
     train.add_argument("--rounds", type=int, default=None,
                        help="override the round cap (default: the config's max_rounds)")
     train.add_argument("--seed", type=int, default=None,
@@ -319,12 +429,14 @@ def add_commands(sub: Any) -> None:
                             "runs/leagues/NAME-seedSEED (default: the config's seed)")
     _add_backend_args(train, "local")
     add_progress_flag(train)
-    train.set_defaults(func=_league_errors(_cmd_league_train))
+    train.set_defaults(func=_league_errors(_cmd_league_train), parser=train)
     table = lsub.add_parser("table", help="print the standings of a league file")
     table.add_argument("--league", default=DEFAULT_LEAGUE, help=LEAGUE_FILE_HELP)
     table.add_argument("--context", default=None,
                        help="only matches whose context starts with this (e.g. tournament:x)")
-    table.add_argument("--anchor", default="racing_line", help="player rated 1000")
+    table.add_argument("--anchor", default=None,
+                       help="player rated 1000 (default: the league's rating anchor, else "
+                            "racing_line; the mean is 1000 when it did not race)")
     table.add_argument("--boot", type=int, default=200, help="bootstrap resamples")
     table.set_defaults(func=_league_errors(_cmd_league_table))
     plot = lsub.add_parser("plot", help="PNGs of the ratings (over training in a league) and "

@@ -275,6 +275,10 @@ REMOVED = {
 those runs load with the code of their commit)."""
 
 
+DEFAULT_MAX_ROUNDS = 1000
+"""``LeagueConfig.max_rounds`` when a config sets none (the budget ends such a league)."""
+
+
 @dataclass(frozen=True, kw_only=True)
 class LeagueConfig:
     """A league run (``league/*.toml`` files hold these fields and tables)."""
@@ -299,8 +303,10 @@ class LeagueConfig:
     """Policy every learner starts from and exploiters reset to (a shipped policy name or a
     policy.pt; AlphaStar starts from supervised weights); None trains from scratch."""
     minutes: float = 30.0
-    """Wall-clock budget; the round that crosses it is the last."""
-    max_rounds: int = 1000
+    """Time budget [min] of the league over all its runs (``league train --this-run``: of
+    one run): a run stops within one training iteration or race job of it, and the next run
+    resumes the round it stopped in."""
+    max_rounds: int = DEFAULT_MAX_ROUNDS
     """Round cap."""
     seed: int = 0
     """Seeds matchmaking, training and races."""

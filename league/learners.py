@@ -6,7 +6,13 @@ agent's best state.
 A worker leaves a round's new state in ``learners/<name>/pending/round-<k>/``; the league moves
 it in (``install_pending``) only after the store has recorded the round, and on a restart
 installs a recorded round's pending state and drops an unrecorded one (``discard_pending``):
-a kill at any point trains each recorded round exactly once."""
+a kill at any point trains each recorded round exactly once.
+
+A round stops early, after the iteration that is running, when the league asks it to (its
+``stop_file`` exists: a Ctrl-C) or its ``deadline`` has passed (the league's time budget);
+the iterations done are kept as the round's training. While it trains, the worker writes its
+count of iterations to ``learners/<name>/progress`` for the league's display
+(``read_progress``)."""
 
 from __future__ import annotations
 
@@ -21,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from h2h_racing.league.config import LeagueConfig
+from h2h_racing.league.stopping import stop_file_exists
 
 
 @dataclass(frozen=True)
@@ -44,6 +51,15 @@ class TrainJob:
     reload: bool = False
     """Rebuild the learner from its saved state even if this worker holds it in memory (the
     league has put an earlier state back: ``[main_restore] margin``)."""
+    stop_file: str | None = None
+    """Stop after the running iteration once this file exists (``league.stopping``)."""
+    deadline: float | None = None
+    """Start no iteration after this time (unix seconds: the league's time budget)."""
+
+    def should_stop(self) -> bool:
+        """Whether the round must end before its next iteration."""
+        return (self.deadline is not None and time.time() >= self.deadline) or \
+            stop_file_exists(self.stop_file)
 
 
 _RUNNERS: dict[str, tuple[int, Any]] = {}
@@ -53,7 +69,9 @@ learner's ``runner.pt``. Module-level on purpose: it is the state of one worker 
 
 
 def train_round(job: TrainJob) -> dict[str, float]:
-    """Run one round of PPO for ``job.learner``; save its state; return round statistics."""
+    """Run one round of PPO for ``job.learner`` (fewer iterations when it is asked to stop:
+    ``TrainJob.should_stop``); save its state unless no iteration ran; return the round's
+    ``steps``, ``seconds`` and ``iterations``."""
     os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
     # First: without torch, this import's error names the extra to install.
     from h2h_racing.training.policy_file import load_init, load_runner_state, save_policy
@@ -66,6 +84,10 @@ def train_round(job: TrainJob) -> dict[str, float]:
 
     torch.set_num_threads(1)
     folder = Path(job.folder)
+    iterations = job.config.training.iterations_per_round
+    write_progress(folder, job.round, 0, iterations)
+    if job.should_stop():
+        return {"steps": 0.0, "seconds": 0.0, "iterations": 0.0}
     config = job.config.train_config(job.seed)
     config = dataclasses.replace(config, track=job.track)
     cached = _RUNNERS.get(job.learner)
@@ -88,10 +110,18 @@ def train_round(job: TrainJob) -> dict[str, float]:
     track = load_track(job.track)
     if runner.env.track.name != track.name:
         runner.env.set_track(track)
-    iterations = job.config.training.iterations_per_round
-    runner.learn(iterations)
-    runner.current_learning_iteration += 1  # rsl-rl's learn() reuses the last index (G3)
+    done = 0
+    # One learn() call per iteration, the same updates as learn(iterations) (rsl-rl's loop
+    # keeps no state between iterations besides the runner's): a stop request or the budget
+    # ends the round after the iteration that is running.
+    while done < iterations and not job.should_stop():
+        runner.learn(1)
+        runner.current_learning_iteration += 1  # rsl-rl's learn() reuses the last index (G3)
+        done += 1
+        write_progress(folder, job.round, done, iterations)
     seconds = time.perf_counter() - start
+    if not done:  # stopped before its first iteration: nothing to keep
+        return {"steps": 0.0, "seconds": seconds, "iterations": 0.0}
     # The new state goes to pending/round-<k>/: the league installs it (install_pending) once
     # the store has recorded the round, so a kill in between cannot leave a state trained
     # twice under one recorded round.
@@ -100,8 +130,31 @@ def train_round(job: TrainJob) -> dict[str, float]:
     atomic(lambda p: runner.save(str(p)), pending / "runner.pt")
     atomic(lambda p: save_policy(runner, config, p), pending / "latest.pt")
     _RUNNERS[job.learner] = (job.round, runner)
-    steps = iterations * config.num_envs * config.num_steps_per_env
-    return {"steps": float(steps), "seconds": seconds}
+    steps = done * config.num_envs * config.num_steps_per_env
+    return {"steps": float(steps), "seconds": seconds, "iterations": float(done)}
+
+
+PROGRESS_FILE = "progress"
+"""A learner's iteration count in its running round, in its folder: ``round done total``."""
+
+
+def write_progress(folder: Path, round_index: int, done: int, total: int) -> None:
+    """Write a learner's iteration count (atomically; for the league's display only, so a
+    failed write is ignored)."""
+    try:
+        atomic(lambda p: p.write_text(f"{round_index} {done} {total}\n"),
+               folder / PROGRESS_FILE)
+    except OSError:
+        pass
+
+
+def read_progress(folder: Path, round_index: int) -> int:
+    """Iterations a learner has done in round ``round_index`` (0 when unknown)."""
+    try:
+        fields = (folder / PROGRESS_FILE).read_text().split()
+        return int(fields[1]) if int(fields[0]) == round_index else 0
+    except (OSError, ValueError, IndexError):
+        return 0
 
 
 def make_env(config: Any, opponent: Any) -> Any:

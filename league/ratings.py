@@ -182,8 +182,8 @@ def rating_trends(snapshots: Iterable[tuple[str, str, float]],
 
 def format_trends(trends: Sequence[Trend]) -> str:
     """Format trends as a text table."""
-    lines = [f"{'lineage':<20} {'snapshots':>9} {'first 3':>8} {'last 3':>8} {'rank corr':>9}  best",
-             "-" * 72]
+    lines = [f"{'lineage':<20} {'snapshots':>9} {'first 3':>8} {'last 3':>8} "
+             f"{'rank corr':>9}  best", "-" * 72]
     for t in trends:
         corr = "-" if not math.isfinite(t.correlation) else f"{t.correlation:+.2f}"
         lines.append(f"{t.lineage:<20} {t.snapshots:>9} {t.first:>8.0f} {t.last:>8.0f} "

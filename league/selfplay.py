@@ -29,8 +29,15 @@ its own batched ``RacingVecEnv`` with one learner car and one opponent car per e
    ``racing_line`` at 1000, is appended to the rating history at the league's step count.
 
 Everything lives in the league folder: ``league.sqlite`` (players, matches, ratings), the
-learners' state and the snapshots. Killing the run at any moment and starting it again
-continues from the last finished round: matches are keyed by round, so none is counted twice.
+learners' state, the snapshots and ``league.log`` (the round lines, ``league.display``).
+Killing the run at any moment and starting it again continues from the last finished round:
+matches are keyed by round, so none is counted twice.
+
+A run ends at its time budget (``minutes`` of league time over all runs, stored in the league
+file; or of this run with ``this_run``), within one training iteration or one race job of it,
+or at the round cap, or when a ``StopSwitch`` (Ctrl-C) asks it to stop: learners stop after
+the iteration they are running and keep it, race jobs still running are dropped. What was done
+of the round is kept, and the next run resumes that round where it stopped.
 """
 
 from __future__ import annotations
@@ -44,26 +51,40 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from h2h_racing.league.config import LeagueConfig, LearnerSpec
-from h2h_racing.league.learners import (TrainJob, atomic, copy_state, discard_pending,
-                                       install_pending, train_round)
+from h2h_racing.league.backends import JobsStopped
+from h2h_racing.league.config import DEFAULT_MAX_ROUNDS, LeagueConfig, LearnerSpec
+from h2h_racing.league.display import LeagueDisplay
+from h2h_racing.league.learners import (TrainJob, atomic, discard_pending, install_pending,
+                                       read_progress, train_round)
+from h2h_racing.league.main_restore import KeepsBest, round_of
+from h2h_racing.league.stopping import StopSwitch
 from h2h_racing.league.store import LeagueStore, Player, file_sha256, player_for
 from h2h_racing.league.tournament import PAIR_ORDERS, Job, make_job, run_job
-from h2h_racing.progress import Mode, Progress
+from h2h_racing.progress import Mode
+
+ELAPSED = "elapsed_seconds"
+"""Meta key of the league's time so far over all its runs [s] (the budget's clock)."""
+STOP_FILE = "stop-requested"
+"""File in the league folder that asks the learners' workers to stop (``StopSwitch``)."""
 
 
-def _round_of(key: str, context: str) -> int:
-    """The round of an evaluation match key ``<context>:round=<r>:...`` (``League._jobs``)."""
-    head = f"{context}:round="
-    if not key.startswith(head):
-        raise ValueError(f"match key {key!r} is not a round's evaluation key ({head}<r>:...)")
-    return int(key[len(head):].split(":", 1)[0])
+def _minutes(value: float) -> str:
+    """``30.0`` -> ``30``, ``0.25`` -> ``0.25``, ``0.1527`` -> ``0.15``."""
+    return f"{value:.2f}".rstrip("0").rstrip(".")
+
+
+class RoundStopped(Exception):
+    """The round stopped part-way (budget or stop request); ``phase`` is where."""
+
+    def __init__(self, phase: str) -> None:
+        super().__init__(phase)
+        self.phase = phase
 
 
 # ------------------------------------------------------------------ the league (driver)
 
 
-class League:
+class League(KeepsBest):
     """A league run in ``folder`` (see the module docstring).
 
     Args:
@@ -72,13 +93,16 @@ class League:
             the same name is continued.
         backend: Where learner rounds and matches run (``league.backends``); None: in process.
         out: Progress display stream (None: stderr): a line per round (standings, timings)
-            and the run's progress line (``h2h_racing.progress``).
+            and the run's progress line (``league.display``).
         progress: ``"auto"`` (a redrawn line on a terminal, a line per tenth of the budget
             elsewhere) or ``"off"`` (the round lines only).
+        this_run: Count ``minutes`` from this run's start, not over the league's runs.
+        stop: Checked at the run's safe points; its file stops the training workers.
     """
 
     def __init__(self, config: LeagueConfig, folder: str | Path, backend: Any | None = None,
-                 out: TextIO | None = None, progress: Mode = "auto") -> None:
+                 out: TextIO | None = None, progress: Mode = "auto", this_run: bool = False,
+                 stop: StopSwitch | None = None) -> None:
         from h2h_racing.league.backends import InProcessBackend
 
         self.config = config
@@ -89,10 +113,25 @@ class League:
         if stored is not None and stored != config.name:
             raise ValueError(f"{self.folder} holds league {stored!r}, not {config.name!r}; "
                              f"give another folder")
-        self.store.set_meta("league_name", config.name)
+        from h2h_racing.league.table import RATING_ANCHOR
+
+        self.store.set_metas({"league_name": config.name, RATING_ANCHOR: config.rating_anchor})
         self.backend = backend or InProcessBackend()
         self.out = out or sys.stderr
-        self.progress = Progress("league", mode=progress, stream=self.out)
+        self.stop = stop or StopSwitch()
+        used = float(self.store.meta().get(ELAPSED, "0"))
+        self.display = LeagueDisplay(config.name, self.folder,
+                                     60.0 * config.minutes + (used if this_run else 0.0), used,
+                                     config.max_rounds, config.max_rounds != DEFAULT_MAX_ROUNDS,
+                                     mode=progress, stream=self.out)
+        self.ended = ""
+        """How the last ``run`` ended: ``rounds``, ``budget`` or ``stopped`` (or ``""``)."""
+        self.kept = ""
+        """What a stopped run kept of the round it stopped in (a clause; ``""`` if none)."""
+        self._trained: dict[str, int] = {}
+        """Iterations each learner trained in the running round (this run)."""
+        self._races = [0, 0]
+        """Races stored and asked for in the running phase."""
         self.rng = np.random.default_rng(config.seed)
         self.timings: dict[str, float] = {}
         """Seconds spent in each phase of the last round (train, evaluate, place)."""
@@ -175,29 +214,82 @@ class League:
 
     # ---- the loop
 
-    def run(self) -> None:
-        """Run rounds until the time budget or the round cap is spent."""
-        start = time.perf_counter()
+    def run(self) -> str:
+        """Run rounds until the time budget or the round cap is spent or ``stop`` asks for a
+        stop (see the module docstring); return how it ended (``ended``)."""
+        cfg = self.config
         first = self._round()
-        for round_index in range(first, self.config.max_rounds):
-            self.round(round_index)
-            self.store.set_meta("round", str(round_index + 1))
-            elapsed = (time.perf_counter() - start) / 60.0
-            self._show(round_index, elapsed)
-            budget = min(1.0, elapsed / self.config.minutes) if self.config.minutes else 1.0
-            rounds = (round_index + 1) / self.config.max_rounds
-            done = max(budget, rounds)
-            # The ETA extrapolated from the larger share is the budget's remaining time when
-            # the budget ends the run first.
-            self.progress.update(done, f"round {round_index + 1}/{self.config.max_rounds} "
-                                       f"({self.config.minutes:g} min budget)")
-            if elapsed >= self.config.minutes:
-                break
-        self.progress.close()
-        if self.config.main_restore.finish_on_best:
+        display = self.display
+        display.started = time.monotonic()  # the budget's clock runs from here
+        minutes = display.budget / 60.0
+        used = display.used / 60.0
+        if first >= cfg.max_rounds:
+            self._say(f"all {cfg.max_rounds} rounds (max_rounds) of {self.folder} are played: "
+                      f"nothing to train")
+            return self._end("rounds")
+        if display.left() <= 0:
+            self._say(f"its {_minutes(minutes)}-minute budget is spent ({used:.1f} min over "
+                      f"{first} rounds in {self.folder}): nothing to train; give a larger "
+                      f"--minutes for the league's time in all, or --this-run for more "
+                      f"minutes now")
+            return self._end("budget")
+        meta = self.store.meta()
+        resumed = first or display.used or any(f"{spec.name}.trained_round" in meta
+                                              for spec in cfg.learners)
+        verb = f"resuming at round {first + 1}" if resumed else "starting"
+        self._say(f"{verb} in {self.folder}: {used:.1f} of {_minutes(minutes)} min used, "
+                  f"{display.left() / 60:.1f} left; log in {display.log_path}")
+        display.phase(first, "starting", None, rounds_done=first)
+        display.start()
+        ended = "rounds"
+        try:
+            for round_index in range(first, cfg.max_rounds):
+                if self._stopping():
+                    ended = "stopped" if self.stop.requested else "budget"
+                    break
+                try:
+                    self.round(round_index)
+                except RoundStopped as stopped:
+                    self.kept = self._kept(round_index, stopped.phase)
+                    ended = "stopped" if self.stop.requested else "budget"
+                    break
+                finally:
+                    self._save_clock()
+                self.store.set_meta("round", str(round_index + 1))
+                self._show(round_index, display.elapsed() / 60.0)
+        finally:
+            display.close(ended != "stopped", self._round())
+        return self._end(ended)
+
+    def _end(self, ended: str) -> str:
+        """Finish a run that ``ended`` so (a stopped one is left as it is, to be resumed)."""
+        self.ended = ended
+        if ended != "stopped" and self.config.main_restore.finish_on_best:
             for spec in self.config.learners:
                 if spec.role == "main":
                     self._finish_on_best(spec.name)
+        return ended
+
+    def _stopping(self) -> bool:
+        """Whether the run must stop at this safe point: a stop request or the budget."""
+        return self.stop.requested or self.display.left() <= 0
+
+    def _save_clock(self) -> None:
+        self.store.set_meta(ELAPSED, repr(self.display.elapsed()))
+
+    def _kept(self, round_index: int, phase: str) -> str:
+        """What is kept of round ``round_index``, stopped in ``phase``."""
+        full = self.config.training.iterations_per_round
+        trained = ", ".join(f"{name} {done}/{full}" for name, done in self._trained.items())
+        parts = [f"its training ({trained} iterations)" if trained else "no training"]
+        if phase != "train":
+            parts.append(f"{self._races[0]} of {self._races[1]} {phase} races")
+        return f"round {round_index + 1} stopped in its {phase} phase: kept " + \
+            " and ".join(parts)
+
+    def _say(self, text: str) -> None:
+        """A line on the display and in the log, after the league's name."""
+        self.display.say(f"[league {self.config.name}] {text}")
 
     def round(self, round_index: int) -> None:
         """One round: matchmaking, training, evaluation, snapshots, ratings."""
@@ -212,6 +304,7 @@ class League:
         for spec in cfg.learners:
             discard_pending(self._latest(spec.name).parent,
                             int(self._learner_meta(spec.name, "trained_round", -1)))
+        self._trained = {}
         for k, spec in enumerate(cfg.learners):
             if self._learner_meta(spec.name, "trained_round", -1) >= round_index:
                 continue  # trained before a restart
@@ -222,10 +315,19 @@ class League:
                                  folder=str(self._latest(spec.name).parent), config=cfg,
                                  round=round_index, track=track, opponents=specs, reset=reset,
                                  seed=cfg.seed + 1000 * round_index + k,
-                                 reload=bool(self._learner_meta(spec.name, "reload", 0.0))))
+                                 reload=bool(self._learner_meta(spec.name, "reload", 0.0)),
+                                 stop_file=str(self.folder / STOP_FILE),
+                                 deadline=time.time() + self.display.left()))
+        folders = [Path(job.folder) for job in jobs]
+        total = len(jobs) * cfg.training.iterations_per_round
+        self.display.phase(round_index, "train", lambda: (
+            sum(read_progress(f, round_index) for f in folders), total), "iterations")
         clock = time.perf_counter()
         for job, stats in self.backend.map(train_round, jobs):
             name = job.learner
+            if not stats.get("iterations", 1):
+                continue  # stopped before its first iteration: the round is not its yet
+            self._trained[name] = int(stats.get("iterations", cfg.training.iterations_per_round))
             self.store.set_metas({
                 f"{name}.steps": str(int(self._learner_meta(name, "steps") + stats["steps"])),
                 f"{name}.reset": "0",
@@ -237,6 +339,8 @@ class League:
             # settled by discard_pending at the next start).
             install_pending(self._latest(name).parent, round_index)
         self.timings["train"] = time.perf_counter() - clock
+        if self._stopping() or len(self._trained) < len(jobs):
+            raise RoundStopped("train")
         clock = time.perf_counter()
         self._evaluate(round_index, track)
         self.timings["evaluate"] = time.perf_counter() - clock
@@ -254,7 +358,7 @@ class League:
                                since >= cfg.snapshots.max_rounds,
                                payoff.win_rates(spec.name, judged), cfg.snapshots.threshold):
                 self._snapshot(spec, reset=resets_on_snapshot(self.rng, spec.role))
-        self._place()
+        self._place(round_index)
         self.timings["place"] = time.perf_counter() - clock
 
     def _opponent_spec(self, name: str) -> str:
@@ -289,86 +393,23 @@ class League:
         learners = [s.name for s in cfg.learners]
         pairs = [(learner, other) for learner in learners for other in opponents]
         pairs += [(a, b) for i, a in enumerate(learners) for b in learners[i + 1:]]
-        self._play(self._jobs("eval", round_index, pairs, track, cfg.races.eval_races))
+        self._play(self._jobs("eval", round_index, pairs, track, cfg.races.eval_races),
+                   round_index, "evaluate")
 
-    def record(self, learner: str, round_index: int) -> float | None:
-        """``learner``'s worst *clean win rate from behind* against the anchors in the
-        evaluation races of rounds ``round_index - window + 1`` to ``round_index``
-        (``[main_restore] window``): over the races it started behind an anchor, the share it
-        won without causing a crash. None if it did not start behind every anchor in them.
-
-        Races from the front are left out because the grid decides them (the front car wins
-        unless passed), and a win by contact does not count: issue 20's targets are wins from
-        behind with few crashes caused, and this is the record that picks the state."""
-        from h2h_racing.league.racecraft import racecraft_records
-
-        first = round_index - self.config.main_restore.window + 1
-        context = self._context("eval")
-        anchors = list(self.config.anchors)
-        window = [m for m in self.store.matches(context=context)
-                  if first <= _round_of(m.key, context) <= round_index]
-        records = racecraft_records(window, learner, anchors)
-        if any(a not in records or records[a].races_behind == 0 for a in anchors):
-            return None
-        return min(records[a].clean_wins_behind / records[a].races_behind for a in anchors)
-
-    def _keep_best(self, learner: str, round_index: int) -> None:
-        """Save ``learner``'s state when its record is the best so far; put the best state
-        back when its record is more than ``[main_restore] margin`` below the best
-        (``LeagueConfig.main_restore``). Files first, then the store: a run killed in
-        between repeats the same copies when it resumes the round."""
-        cfg = self.config
-        window = cfg.main_restore.window
-        if round_index < self._learner_meta(learner, "judge_from", window - 1):
-            return
-        record = self.record(learner, round_index)
-        if record is None:
-            return
-        folder = self._latest(learner).parent
-        best = self._learner_meta(learner, "best_record", -1.0)
-        if record > best:
-            copy_state(folder, folder / "best")
-            self.store.set_metas({f"{learner}.best_record": repr(record),
-                                  f"{learner}.best_round": str(round_index)})
-        elif record < best - cfg.main_restore.margin:
-            restores = int(self._learner_meta(learner, "restores")) + 1
-            self._put_back_best(learner, round_index, {f"{learner}.restores": str(restores)})
-            best_round = int(self._learner_meta(learner, "best_round"))
-            self.progress.message(
-                f"[league {cfg.name}] round {round_index + 1}: {learner}'s record against the "
-                f"anchors {record:.2f} < best {best:.2f} - {cfg.main_restore.margin}: restored "
-                f"its state after round {best_round + 1}")
-
-    def _put_back_best(self, learner: str, round_index: int,
-                       metas: dict[str, str] | None = None) -> None:
-        """Copy ``learner``'s best state over its latest after round ``round_index`` and
-        store ``metas`` with the reload: the next round rebuilds the learner from there, and
-        its next record is judged on a full window of races after it."""
-        folder = self._latest(learner).parent
-        copy_state(folder / "best", folder)
-        self.store.set_metas({
-            **(metas or {}), f"{learner}.reload": "1",
-            f"{learner}.judge_from": str(round_index + self.config.main_restore.window)})
-
-    def _finish_on_best(self, learner: str) -> None:
-        """Leave ``learner`` at its best-record state at the end of a run
-        (``[main_restore] finish_on_best``); nothing if it is there already or no record
-        was ever made."""
-        meta = self.store.meta()
-        last = self._round() - 1
-        if f"{learner}.best_round" not in meta or int(meta[f"{learner}.best_round"]) == last:
-            return
-        self._put_back_best(learner, last)
-        best_round = int(meta[f"{learner}.best_round"])
-        self.progress.message(
-            f"[league {self.config.name}] finished {learner} on its best record "
-            f"({float(meta[f'{learner}.best_record']):.2f}): its state after round "
-            f"{best_round + 1}, not round {last + 1}")
-
-    def _play(self, jobs: list[Job]) -> None:
-        for _job_done, records in self.backend.map(run_job, jobs):
-            for record in records:
-                self.store.record_match(record)
+    def _play(self, jobs: list[Job], round_index: int, phase: str) -> None:
+        """Run ``jobs`` and store their races; ``RoundStopped`` when the run must stop (the
+        races of the jobs still running are dropped, and run when the round resumes)."""
+        self._races = [0, sum(len(job.keys) for job in jobs)]
+        self.display.phase(round_index, phase, lambda: (self._races[0], self._races[1]),
+                           "races")
+        try:
+            for _job_done, records in self.backend.map(run_job, jobs, stop=self._stopping):
+                for record in records:
+                    self.store.record_match(record)
+                self._races[0] += len(records)
+                self.display.draw()
+        except JobsStopped:
+            raise RoundStopped(phase) from None
 
     def _snapshot(self, spec: LearnerSpec, reset: bool) -> None:
         """Freeze ``spec``'s latest weights into a new player (placed by ``_place``)."""
@@ -388,7 +429,7 @@ class League:
                               metas={f"{spec.name}.rounds_since_snapshot": "0",
                                      f"{spec.name}.reset": "1" if reset else "0"})
 
-    def _place(self) -> None:
+    def _place(self, round_index: int) -> None:
         """Placement races that are not stored yet: the anchors against each other, and every
         snapshot against every older frozen player (anchors and earlier snapshots); then refit
         the ratings."""
@@ -402,7 +443,7 @@ class League:
                 for job in self._jobs("placement", None, pairs, track,
                                       self.config.races.placement_races)]
         if jobs:
-            self._play(jobs)
+            self._play(jobs, round_index, "place")
             self._rate()
 
     def league_steps(self) -> int:
@@ -430,10 +471,14 @@ class League:
                          rng=np.random.default_rng(self.config.seed)) if races else []
 
     def _show(self, round_index: int, minutes: float) -> None:
-        rows = self.standings()[:3]
+        """The round's line: the top of the league's table (``league.table``; without its
+        intervals) and where the time went."""
+        from h2h_racing.league.table import table_rows
+
+        rows = table_rows(self.store, n_boot=0)[0][:3]
         top = ", ".join(f"{r.player} {r.rating:.0f}" for r in rows) or "-"
-        self.progress.message(
-            f"[league {self.config.name}] round {round_index + 1}  {minutes:5.1f} min  "
+        self._say(
+            f"round {round_index + 1}  {minutes:5.1f} min  "
             f"{self.league_steps() / 1e6:6.2f} M steps  snapshots {len(self.snapshots())}  "
             f"top: {top}  (train {self.timings.get('train', 0):.0f} s, evaluate "
             f"{self.timings.get('evaluate', 0):.0f} s, place {self.timings.get('place', 0):.0f} s)")
@@ -446,14 +491,14 @@ class League:
 
         context = self._context("eval")
         matches = [m for m in self.store.matches(context=context)
-                   if _round_of(m.key, context) == round_index]
+                   if round_of(m.key, context) == round_index]
         for spec in self.config.learners:
             record = racecraft_records(matches, spec.name, self.config.anchors).get("all")
             if record is not None:
                 record = dataclasses.replace(record, opponent="the anchors")
-                self.progress.message(f"  {record.line()}")
+                self.display.say(f"  {record.line()}")
 
-    def close(self) -> None:
-        """Release the store and the backend."""
+    def close(self, now: bool = False) -> None:
+        """Release the store and the backend (``now``: without waiting for running jobs)."""
         self.store.close()
-        self.backend.close()
+        self.backend.close(now=now)

@@ -51,11 +51,11 @@ from typing import Any
 from h2h_racing.league.players import (
     PLAYER_KINDS,
     Player,
-    file_sha256,
-    player_for,
+    file_sha256,  # noqa: F401 (re-exported)
+    player_for,  # noqa: F401 (re-exported)
 )
 from h2h_racing.league.store_schema import (
-    SCHEMA_VERSION,
+    SCHEMA_VERSION,  # noqa: F401 (re-exported)
     LeagueStoreError,
     check_league_file,
     check_not_empty,
@@ -244,9 +244,12 @@ class LeagueStore:
                 player.kind, player.checkpoint, player.checkpoint_sha256)
             if not same:
                 raise ValueError(
-                    f"the league already has a different player named {player.name!r} "
+                    f"{self.path} already has a different player named {player.name!r} "
                     f"({existing.kind}, {existing.checkpoint}, sha256 "
-                    f"{existing.checkpoint_sha256}); choose another name")
+                    f"{existing.checkpoint_sha256}); now {player.kind}, {player.checkpoint}, "
+                    f"sha256 {player.checkpoint_sha256}: a file that changed since, or "
+                    f"another file of that name. Give another league file (--league), or "
+                    f"copy the file to a name of its own")
             return existing
         if player.parent is not None and self.player(player.parent) is None:
             raise ValueError(f"player {player.name!r}: parent {player.parent!r} is not in the "

@@ -40,6 +40,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from h2h_racing.league.players import check_distinct_names
 from h2h_racing.league.store import CarResult, LeagueStore, MatchRecord, player_for
 
 SCHEDULES = ("round_robin", "swiss")
@@ -401,7 +402,8 @@ class TournamentReport:
 
 def run_tournament(config: TournamentConfig, store: LeagueStore, backend: Any | None = None,
                    progress: Callable[[int, int], None] | None = None,
-                   n_boot: int = 200) -> TournamentReport:
+                   n_boot: int = 200,
+                   stop: Callable[[], bool] | None = None) -> TournamentReport:
     """Play ``config`` into ``store`` and rate the players.
 
     Args:
@@ -410,6 +412,9 @@ def run_tournament(config: TournamentConfig, store: LeagueStore, backend: Any | 
         backend: Where jobs run (``league.backends``); None runs them in this process.
         progress: Called with (races done, races in all) after each job.
         n_boot: Bootstrap resamples for the rating intervals.
+        stop: Checked while races run; when it turns true, ``JobsStopped``
+            (``league.backends``) is raised: the races stored so far stay stored, and the same
+            call later plays the rest.
     """
     from h2h_racing.league.backends import InProcessBackend
     from h2h_racing.league.ratings import standings
@@ -418,10 +423,7 @@ def run_tournament(config: TournamentConfig, store: LeagueStore, backend: Any | 
     backend = backend or InProcessBackend()
     players = [player_for(name) for name in config.players]
     names = [p.name for p in players]
-    if len(set(names)) != len(names):
-        raise ValueError(f"players {list(config.players)} name the same player twice (as "
-                         f"{names}): a driver with the same settings, or two policy files "
-                         f"of one name")
+    check_distinct_names(config.players, names)
     check_settings(config, store)
     for player in players:
         store.add_player(player)
@@ -433,7 +435,7 @@ def run_tournament(config: TournamentConfig, store: LeagueStore, backend: Any | 
     if config.schedule == "round_robin":
         jobs = round_robin_jobs(config, drivers, done)
         total = len(done) + sum(len(j.keys) for j in jobs)
-        ran = _run_jobs(jobs, store, backend, progress, len(done), total)
+        ran = _run_jobs(jobs, store, backend, progress, len(done), total, stop)
     else:
         for round_index in range(config.swiss_rounds):
             matches = store.matches(context=config.context)
@@ -445,7 +447,7 @@ def run_tournament(config: TournamentConfig, store: LeagueStore, backend: Any | 
                     for track in config.tracks for pair in pairs]
             jobs = [job for job in jobs if job is not None]
             total = len(matches) + sum(len(j.keys) for j in jobs)
-            ran += _run_jobs(jobs, store, backend, progress, len(matches), total)
+            ran += _run_jobs(jobs, store, backend, progress, len(matches), total, stop)
     # In canonical order with the fixed bootstrap seed (store.races, ratings.standings):
     # workers finish jobs in any order and a resume stores the rest later, and the table must
     # not depend on that (it equals `league table --context tournament:NAME`).
@@ -477,10 +479,13 @@ def _swiss_state(players: Sequence[str], matches: Sequence[MatchRecord]
 
 
 def _run_jobs(jobs: list[Job], store: LeagueStore, backend: Any,
-              progress: Callable[[int, int], None] | None, already: int, total: int) -> int:
+              progress: Callable[[int, int], None] | None, already: int, total: int,
+              stop: Callable[[], bool] | None = None) -> int:
     """Run ``jobs`` on ``backend``; store each race as its job completes."""
     ran = 0
-    for _job_done, records in backend.map(run_job, jobs):
+    if progress is not None:
+        progress(already, total)  # the line shows from the start, not after the first job
+    for _job_done, records in backend.map(run_job, jobs, stop=stop):
         for record in records:
             ran += int(store.record_match(record))
         if progress is not None:

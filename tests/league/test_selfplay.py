@@ -439,7 +439,9 @@ def test_a_run_finishing_on_best_hands_out_the_mains_best_record_state(tmp_path)
                                 "main.best_record": "0.8"})
         league.run()  # the last round's state is the best: kept
         assert (folder / "latest.pt").read_text() == "C latest.pt"
-        assert out.getvalue() == ""
+        # It only says that nothing is left to train (no "finished main on its best" line).
+        assert out.getvalue() == (f"[league smoke] all 2 rounds (max_rounds) of {tmp_path} are "
+                                  f"played: nothing to train\n")
         league.store.set_meta("main.best_round", "3")
         league.run()
         assert (folder / "latest.pt").read_text() == "A latest.pt"

@@ -125,7 +125,9 @@ def test_players_with_settings(tmp_path):
         # Two spellings of one pace are one player: refused before any race.
         same = _config(players=("racing_line:grip_factor=0.5", "racing_line:grip_factor=.50"),
                        name="same")
-        with pytest.raises(ValueError, match="name the same player twice"):
+        with pytest.raises(ValueError, match=r"racing_line:grip_factor=0.5 and "
+                                             r"racing_line:grip_factor=.50 are both named "
+                                             r"'racing_line:grip_factor=0.5'"):
             run_tournament(same, store, n_boot=10)
         assert store.count_matches(context="tournament:same") == 0
 
