@@ -95,6 +95,10 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
                 else f"{spent / 60:.1f} of --minutes {minutes:g}")
         raise RunFolderError(f"--resume: the run in {out} already trained {used}; give a larger "
                              f"--iterations or --minutes (both count the whole run) to train on")
+    if checkpoint is not None and config.simtrace_envs:
+        raise RunFolderError("--resume cannot go on with DeepRacer simtrace logs (their "
+                             "iteration files would restart at 0 over the old ones): resume "
+                             "without --simtrace, or start again with --overwrite")
     # Before any work: a run asked for a GPU this machine lacks fails here, not after the env.
     check_device_available(config.device)
     torch.manual_seed(config.seed + done)

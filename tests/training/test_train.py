@@ -319,7 +319,8 @@ class TestImitationPPO:
         assert teacher.scripted_teacher and teacher.expert().lane == "outer"
         assert teacher.expert().cruise_speed == 2.0
         with pytest.raises(ValueError, match=r"^\[imitation\] teacher: pure_pursuit: "
-                                             r"cruise_speed must be a number in \(0, 4\], got '9'$"):
+                                             r"cruise_speed must be a number in \(0, 4\], "
+                                             r"got '9'$"):
             ImitationConfig(teacher="pure_pursuit:cruise_speed=9")
         with pytest.raises(ValueError, match=r"^\[imitation\] teacher: league_racer: a trained "
                                              r"policy takes no settings"):

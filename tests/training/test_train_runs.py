@@ -127,6 +127,13 @@ class TestResume:
         with pytest.raises(RunFolderError, match="already trained 2 of --iterations 2"):
             train(SMALL, iterations=2, out=tmp_path, resume=True)
 
+    def test_simtrace_logs_are_not_resumed(self, tmp_path: Path) -> None:
+        # Their iteration files would restart at 0 over the first run's.
+        config = dataclasses.replace(SMALL, simtrace_envs=1, simtrace_eval_trials=0)
+        train(config, iterations=1, out=tmp_path)
+        with pytest.raises(RunFolderError, match="cannot go on with DeepRacer simtrace logs"):
+            train(config, iterations=2, out=tmp_path, resume=True)
+
 
 class TestCurves:
     """curves.csv and curves.png beside the tensorboard log, with the reward in use."""
@@ -240,7 +247,7 @@ def test_ctrl_c_stops_at_an_iteration_with_one_line_and_resumes(tmp_path: Path) 
                    tmp_path)
     try:
         deadline = time.monotonic() + 240
-        while not (out / "curves.csv").is_file() or len(rows(out)) < 1:
+        while not (out / "model_0.pt").is_file():  # the first iteration's checkpoint
             assert child.poll() is None, child.communicate()
             assert time.monotonic() < deadline, "no iteration in 240 s"
             time.sleep(0.2)
@@ -270,3 +277,74 @@ def test_ctrl_c_stops_at_an_iteration_with_one_line_and_resumes(tmp_path: Path) 
     assert resumed.returncode == 0, resumed.stderr
     assert f"resuming at iteration {done} of {done + 1} from {checkpoint}" in resumed.stdout
     assert [int(r["iteration"]) for r in rows(out)] == list(range(1, done + 2))
+
+
+class TestTrainedAlone:
+    """A policy file says whether it was trained alone; race and evaluate warn once when such a
+    policy races another car (issue 37: a time-trial model left the track 28 times in a race,
+    and nothing said why)."""
+
+    def test_the_policy_file_records_how_it_was_trained(self, tmp_path: Path) -> None:
+        from h2h_racing.training.policy_file import trained_alone
+
+        train(SMALL, iterations=1, out=tmp_path / "alone")
+        versus = dataclasses.replace(SMALL, num_cars=2, learners=1,
+                                     opponent="pure_pursuit,blocker")
+        train(versus, iterations=1, out=tmp_path / "versus")
+        alone = torch.load(tmp_path / "alone" / "policy.pt", weights_only=True)
+        raced = torch.load(tmp_path / "versus" / "policy.pt", weights_only=True)
+        assert alone["racing"] == {"alone": True, "cars": 1, "learners": 1, "opponents": []}
+        assert raced["racing"] == {"alone": False, "cars": 2, "learners": 1,
+                                   "opponents": ["pure_pursuit", "blocker"]}
+        assert trained_alone(alone) is True and trained_alone(raced) is False
+        # Files written before the record: the env config's car count says it.
+        del alone["racing"]
+        assert trained_alone(alone) is True
+        assert trained_alone({"env_config": {}}) is None
+
+    def test_shipped_time_trial_policies_count_as_trained_alone(self) -> None:
+        from h2h_racing.policies.trained import load_policy_payload
+        from h2h_racing.training.policy_file import trained_alone
+
+        assert trained_alone(load_policy_payload("ppo_generalist")) is True
+        assert trained_alone(load_policy_payload("league_racer")) is False
+
+    def test_race_warns_once_per_policy_trained_alone(
+            self, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
+        from h2h_racing import cli_training
+        from h2h_racing.cli import main
+
+        monkeypatch.setattr(cli_training, "_WARNED_ALONE", set())
+        assert main(["race", "--track", "oval", "--laps", "1", "--no-progress", "--drivers",
+                     "ppo_generalist,league_racer,ppo_generalist"]) == 0
+        err = capsys.readouterr().err
+        warnings = [line for line in err.splitlines() if line.startswith("warning:")]
+        assert warnings == [
+            "warning: ppo_generalist was trained alone (no other car on its track), and races "
+            "2 other cars here: it has never seen one and is likely to crash; for races, "
+            "train it against a car (h2h-racing train's default: --opponents racing_line)"]
+        # Once per command: a second call in the same process says nothing more.
+        cli_training.warn_trained_alone(["ppo_generalist", "pure_pursuit"], others=1)
+        assert capsys.readouterr().err == ""
+
+    def test_no_warning_alone_or_for_racers(self, capsys: pytest.CaptureFixture[str],
+                                            monkeypatch: pytest.MonkeyPatch) -> None:
+        from h2h_racing import cli_training
+
+        monkeypatch.setattr(cli_training, "_WARNED_ALONE", set())
+        cli_training.warn_trained_alone(["ppo_generalist"], others=0)  # a time trial
+        cli_training.warn_trained_alone(["league_racer", "racing_line", "no_such.pt"],
+                                        others=2)
+        assert capsys.readouterr().err == ""
+
+    def test_evaluate_against_warns_once_over_opponents_and_tracks(
+            self, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
+        from h2h_racing import cli_training
+        from h2h_racing.cli import main
+
+        monkeypatch.setattr(cli_training, "_WARNED_ALONE", set())
+        assert main(["evaluate", "--policy", "ppo_generalist", "--against",
+                     "pure_pursuit,blocker", "--track", "oval", "--races", "2", "--laps", "1",
+                     "--no-progress"]) == 0
+        err = capsys.readouterr().err
+        assert err.count("warning: ppo_generalist was trained alone") == 1, err
