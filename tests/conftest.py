@@ -124,3 +124,20 @@ def make_env() -> Callable[..., Any]:
         kwargs.update(overrides)
         return h2h_racing.parallel_env(**kwargs)
     return factory
+
+
+def pytest_collectstart(collector: pytest.Collector) -> None:
+    """Piped or logged, pytest says nothing while it collects (10-45 s on 2 cores: every test
+    module is imported, torch and numba among them; on a terminal it counts the tests as it
+    goes). So off a terminal, a line for each top-level folder of tests it starts on; ``-qq``
+    keeps quiet."""
+    config = collector.config
+    reporter = config.pluginmanager.get_plugin("terminalreporter")
+    terminal = reporter is not None and (reporter.isatty() if callable(reporter.isatty)
+                                         else reporter.isatty)
+    if reporter is None or terminal or config.get_verbosity() < -1:
+        return
+    path = getattr(collector, "path", None)
+    tests = Path(__file__).resolve().parent
+    if isinstance(collector, pytest.Directory) and path is not None and path.parent == tests:
+        reporter.write_line(f"collecting {path.relative_to(tests.parent)}/ ...", flush=True)
