@@ -33,7 +33,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from h2h_racing.cli_help import DESCRIPTION, DRIVERS_HELP, EPILOG, SEED_HELP, ArgumentParser
-from h2h_racing.cli_training import add_training_commands, warn_trained_alone
+from h2h_racing.cli_train import warn_trained_alone
+from h2h_racing.cli_training import add_training_commands
 from h2h_racing.config_rules import RACE_TYPES
 from h2h_racing.progress import add_progress_flag, progress_mode
 

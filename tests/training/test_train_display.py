@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from h2h_racing.cli import build_parser
-from h2h_racing.cli_training import _train_config
+from h2h_racing.cli_train import _train_config
 from h2h_racing.training.config import TrainConfig
 from h2h_racing.training.train import train
 

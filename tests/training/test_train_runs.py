@@ -311,10 +311,10 @@ class TestTrainedAlone:
 
     def test_race_warns_once_per_policy_trained_alone(
             self, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
-        from h2h_racing import cli_training
+        from h2h_racing import cli_train
         from h2h_racing.cli import main
 
-        monkeypatch.setattr(cli_training, "_WARNED_ALONE", set())
+        monkeypatch.setattr(cli_train, "_WARNED_ALONE", set())
         assert main(["race", "--track", "oval", "--laps", "1", "--no-progress", "--drivers",
                      "ppo_generalist,league_racer,ppo_generalist"]) == 0
         err = capsys.readouterr().err
@@ -324,25 +324,25 @@ class TestTrainedAlone:
             "2 other cars here: it has never seen one and is likely to crash; for races, "
             "train it against a car (h2h-racing train's default: --opponents racing_line)"]
         # Once per command: a second call in the same process says nothing more.
-        cli_training.warn_trained_alone(["ppo_generalist", "pure_pursuit"], others=1)
+        cli_train.warn_trained_alone(["ppo_generalist", "pure_pursuit"], others=1)
         assert capsys.readouterr().err == ""
 
     def test_no_warning_alone_or_for_racers(self, capsys: pytest.CaptureFixture[str],
                                             monkeypatch: pytest.MonkeyPatch) -> None:
-        from h2h_racing import cli_training
+        from h2h_racing import cli_train
 
-        monkeypatch.setattr(cli_training, "_WARNED_ALONE", set())
-        cli_training.warn_trained_alone(["ppo_generalist"], others=0)  # a time trial
-        cli_training.warn_trained_alone(["league_racer", "racing_line", "no_such.pt"],
+        monkeypatch.setattr(cli_train, "_WARNED_ALONE", set())
+        cli_train.warn_trained_alone(["ppo_generalist"], others=0)  # a time trial
+        cli_train.warn_trained_alone(["league_racer", "racing_line", "no_such.pt"],
                                         others=2)
         assert capsys.readouterr().err == ""
 
     def test_evaluate_against_warns_once_over_opponents_and_tracks(
             self, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
-        from h2h_racing import cli_training
+        from h2h_racing import cli_train
         from h2h_racing.cli import main
 
-        monkeypatch.setattr(cli_training, "_WARNED_ALONE", set())
+        monkeypatch.setattr(cli_train, "_WARNED_ALONE", set())
         assert main(["evaluate", "--policy", "ppo_generalist", "--against",
                      "pure_pursuit,blocker", "--track", "oval", "--races", "2", "--laps", "1",
                      "--no-progress"]) == 0
