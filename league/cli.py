@@ -234,7 +234,9 @@ def _cmd_league_train(args: argparse.Namespace) -> int:
         steps = sum(float(v) for k, v in store.meta().items() if k.endswith(".steps"))
         snapshots = len(store.players("snapshot"))
         table = table_text(store) if store.count_matches() else ""
-    why = {"rounds": "its round cap", "budget": "its time budget"}[ended]
+    why = {"rounds": "its round cap",
+           "budget": "its time budget (a larger --minutes, the league's total, or --this-run "
+                     "trains on)"}[ended]
     summary = (f"league {config.name!r} in {out}: ended at {why}, {rounds} rounds, "
                f"{league.display.elapsed() / 60:.1f} min, {steps / 1e6:.2f} M steps, "
                f"{snapshots} snapshots" + (f"; {league.kept}" if league.kept else ""))
