@@ -316,7 +316,7 @@ class League(KeepsBest):
                                  round=round_index, track=track, opponents=specs, reset=reset,
                                  seed=cfg.seed + 1000 * round_index + k,
                                  reload=bool(self._learner_meta(spec.name, "reload", 0.0)),
-                                 stop_file=str(self.folder / STOP_FILE),
+                                 stop_file=str((self.folder / STOP_FILE).resolve()),
                                  deadline=time.time() + self.display.left()))
         folders = [Path(job.folder) for job in jobs]
         total = len(jobs) * cfg.training.iterations_per_round
