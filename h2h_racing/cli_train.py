@@ -37,13 +37,17 @@ def _cmd_train(args: argparse.Namespace) -> int:
               f"{_resume_command(args, out)}", file=sys.stderr)
         return EXIT_INTERRUPTED
     except KeyboardInterrupt:  # a Ctrl-C before training started (setup, compiling)
-        print(_stopped_line(args, "interrupted before training started"), file=sys.stderr)
+        print(_stopped_line(args, "interrupted"), file=sys.stderr)
         return EXIT_INTERRUPTED
     print(f"trained {runner.current_learning_iteration} iterations -> {out / 'policy.pt'} "
           f"(rsl-rl logs and checkpoints in {out}; curves: tensorboard --logdir {out})")
     if args.simtrace:
         print(f"DeepRacer simtrace + metrics -> {out / 'simtrace'} (deepracer-utils: "
               f"DeepRacerLog('{out / 'simtrace' / 'car_0'}').load_training_trace())")
+    if args.onnx and stop.requested:  # a Ctrl-C while training's last files were saved
+        print(f"interrupted after training: {out / 'policy.pt'} is complete; export it with: "
+              f"h2h-racing export {out / 'policy.pt'} --format onnx", file=sys.stderr)
+        return EXIT_INTERRUPTED
     if args.onnx:
         from h2h_racing.training.export import export_policy
 
