@@ -20,11 +20,11 @@ graph-based planner (Stahl et al., ITSC 2019), batched over env copies:
   starts in a bend: a pass is set up on the approach, where its grip lets it brake later.
 * **Defence**: with a car close behind (``cover_gap``) and a corner ahead, it takes the inside
   lane of that corner once, until the apex, then its line again.
-* **Tracking**: pure pursuit on the tracked path with a yaw-rate damper (a car driven near the
-  grip limit oversteers when its yaw rate runs ahead of the path's; the damper counter-steers
-  by ``YAW_DAMPING (r - v tan(delta) / L)``), and a speed command that makes the car's speed
-  controller deliver the profile's acceleration (to its lowest speed over ``SPEED_PREVIEW``)
-  rather than lag it.
+* **Tracking** (:mod:`~h2h_racing.policies.tracking`): the path's own curvature as
+  feed-forward, with feedback on the offset and heading errors and a yaw-rate damper, and a
+  speed command that makes the car's speed controller deliver the profile's acceleration (to
+  its lowest speed over ``SPEED_PREVIEW``) rather than lag it, braking where the tyres cannot
+  give the commanded curvature.
 
 ``grip_factor`` sets the pace: the share of ``mu g`` used in corners (``racing_line`` uses
 0.6). Boxes (``object_avoidance``) are kept clear of as by ``racing_line``
@@ -43,6 +43,7 @@ import numpy.typing as npt
 
 from h2h_racing.core import RaceCore
 from h2h_racing.policies import planner_kernel as kernel
+from h2h_racing.policies import tracking
 from h2h_racing.policies.obstacles import avoid_obstacles
 from h2h_racing.policies.racing_line import (GRAVITY, compute_race_line, line_curvature,
                                              speed_profile)
@@ -64,14 +65,10 @@ RUNUP_TIME = 1.5
 SPEED_PREVIEW = 0.25
 """Horizon of the speed command [s]: the lowest speed of the plan's profile over it, so that
 the car is at a bend's speed before the bend (racing_line's speed_preview is 0.3 s). Alone on
-the shipped tracks and 20 random ones (10 starts each), with YAW_DAMPING 0.1: 0 left 4 of 27
+the shipped tracks and 20 random ones (10 starts each, pure pursuit tracking): 0 left 4 of 27
 tracks unclean, 0.15 one, 0.25 none, at 3.2 % off racing_line's laps against 4 %."""
 ACCEL_FACTOR = 1.0
 """Share of the car's acceleration used in the speed profiles (the car's own limit)."""
-YAW_DAMPING = 0.1
-"""Counter-steer per rad/s of yaw rate above the path's [s]. In races 0 left the track 4
-times as often as 0.05; alone on the shipped tracks and 20 random ones, 0.05 left one of 27
-unclean, 0.1 none, 0.15 seven."""
 FOLLOW_COST = 0.2
 """Cost of a candidate that must slow behind a car, on top of its time [s]: following gives
 up the pace margin that a free line keeps."""
@@ -179,9 +176,10 @@ class Planner:
 
     Args:
         grip_factor: Share of ``mu g`` used in corners: the driver's pace (``racing_line``
-            uses 0.6). The default is the fastest that laps clean alone on every shipped
-            track and every DeepRacer route of ../shared/data (10 starts each): at 0.7 it
-            leaves 4 of the 40 routes in some attempts, at 0.75 13.
+            uses 0.6). Alone it laps every shipped track and every DeepRacer route of
+            ../shared/data clean at every grip from 0.65 to 1 (10 starts each); its laps
+            differ by under 1 % from 0.85 to 1 (the tracking brakes out of slides), and 0.85
+            caused the fewest crashes in races against ``blocker`` on the shipped tracks.
         brake_factor: Share of the car's braking used in the speed profiles.
         margin: Distance kept by the lanes from each border [m].
         cover_gap: Distance behind within which an attacker makes it defend [m].
@@ -209,7 +207,7 @@ class Planner:
         "runup_gap": Setting(0.0, 5.0, "extra gap of a run-up behind a car it is stuck behind [m]"),
     }
 
-    def __init__(self, grip_factor: float = 0.65, brake_factor: float = 0.8,
+    def __init__(self, grip_factor: float = 0.85, brake_factor: float = 0.8,
                  margin: float = 0.12, cover_gap: float = 1.5, lateral_margin: float = 0.1,
                  long_margin: float = 0.15, follow_gap: float = 0.15, follow_time: float = 0.03,
                  runup_gap: float = 2.0) -> None:
@@ -317,11 +315,13 @@ class Planner:
         d_look = np.empty(e)
         v_cmd = np.empty(e)
         self.report = np.empty((e, lanes.offset.shape[0] + 1, transitions.shape[1], 3))
+        track_at = tracking.preview(v, look)
+        path = np.empty((e, track_at.shape[1], 3))
         kernel.plan(s, d, slope, v, lanes.offset, lanes.speed, lanes.curvature, lanes.centre,
                     lanes.inv_ds, lanes.length, transitions, horizon, 30, *objects[:3], traj,
                     *objects[3:], bonus,
                     *self._plan, self._packed, self._reanchor, self._runup(core),
-                    look, choice, d_look, v_cmd, self.report)
+                    look, choice, d_look, v_cmd, self.report, track_at, path)
         self.choice = choice
         self._stuck = np.where(choice < 0, self._stuck + core.dt, 0.0)
         planned = d_look
@@ -329,14 +329,16 @@ class Planner:
         # Round a box the car leaves its path on purpose: keep the path to come back to.
         self._reanchor = np.where(np.abs(d_look - planned) > 0.01, BOX_REANCHOR,
                                   kernel.REANCHOR)
-        target = track.point_at(s + look, d_look)
-        steer = pursuit_steer(core, car, target)
-        # The pursuit arc's curvature times speed is the yaw rate the path asks for
-        # (kinematic: r = v tan(delta) / L); counter-steer any excess, which near the grip
-        # limit is the start of a spin.
-        wanted = v * np.tan(steer) / core.config.car.wheelbase
-        steer = steer - YAW_DAMPING * (core.yaw_rate[:, car] - wanted)
-        return to_action(core, steer, v_cmd)
+        steer, tracked_cmd = tracking.track_path(core, car, kc, err, path, v_cmd)
+        # Round a box the car steers at a point off its path (pure pursuit, as racing_line):
+        # the path's curvature says nothing of that detour. The pursuit arc's curvature
+        # times speed is the yaw rate it asks for (r = v tan(delta) / L).
+        boxed = np.abs(d_look - planned) > 0.01
+        pursuit = pursuit_steer(core, car, track.point_at(s + look, d_look))
+        pursuit -= tracking.YAW_DAMPING * (core.yaw_rate[:, car]
+                                           - v * np.tan(pursuit) / core.config.car.wheelbase)
+        return to_action(core, np.where(boxed, pursuit, steer),
+                         np.where(boxed, v_cmd, tracked_cmd))
 
     def _runup(self, core: RaceCore) -> FloatArray:
         """Extra follow gap (E,) [m]: after ``RUNUP_AFTER`` seconds stuck behind a car

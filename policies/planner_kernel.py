@@ -96,7 +96,7 @@ def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, tra
          horizon, samples, obj_gap, obj_lo, obj_hi, traj, obj_v, obj_dd, obj_half_len,
          obj_half_wid, obj_valid, lane_bonus, plan_lane, plan_start, plan_error, plan_slope,
          plan_length, plan_hold, params, reanchor, gap_extra, look, choice, d_look, v_cmd,
-         report):  # pragma: no cover
+         report, track_at, track_out):  # pragma: no cover
     """Choose a manoeuvre per env copy and return its look-ahead offset and speed command.
 
     Args:
@@ -139,6 +139,10 @@ def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, tra
             car it would hit, for one that is not free), the object it would hit (-1: none)
             and how far it leaves the track [m] (for tests and diagnosis; lanes not looked at
             alone hold nan).
+        track_at: (E, K) arc distances ahead of the car [m] (within its look-ahead) where
+            the tracking controller reads the tracked path.
+        track_out: Out (E, K, 3): the tracked path's offset [m], slope dd/ds and curvature
+            [1/m] at ``s0 + track_at``.
     """
     num_env = s0.shape[0]
     hold_lane = base_d.shape[0]
@@ -265,6 +269,10 @@ def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, tra
             plan_hold[e] = hold
         d_look[e] = _path(lane_d, plan_lane[e], plan_start[e], plan_error[e], plan_slope[e],
                           plan_length[e], s0[e] + look[e], inv_ds, length)
+        for k in range(track_at.shape[1]):
+            _geometry(lane_d, lane_k, centre, plan_lane[e], plan_start[e], plan_error[e],
+                      plan_slope[e], plan_length[e], s0[e] + track_at[e, k], inv_ds, length,
+                      track_out[e, k])
         v_cmd[e] = _command(v0[e], v1, step, params)
 
 
@@ -369,6 +377,25 @@ def _path(lane_d, lane, start, error, slope, trans, s, inv_ds, length):  # pragm
     ahead -= length * math.floor(ahead / length + 0.5)
     h0, h1, _, _ = _blend(max(ahead, 0.0) / trans)
     return _table(lane_d, lane, s, inv_ds, length) + error * h0 + slope * trans * h1
+
+
+@njit(cache=True, inline="always")
+def _geometry(lane_d, lane_k, centre, lane, start, error, slope, trans, s, inv_ds, length,
+              out):  # pragma: no cover
+    """Write the offset [m], slope dd/ds and curvature [1/m] at ``s`` of the path ``_path``
+    describes into ``out`` (3,); the curvature as ``_candidate`` computes it."""
+    d = _path(lane_d, lane, start, error, slope, trans, s, inv_ds, length)
+    out[0] = d
+    out[1] = (_path(lane_d, lane, start, error, slope, trans, s + 0.05, inv_ds, length)
+              - _path(lane_d, lane, start, error, slope, trans, s - 0.05, inv_ds, length)) / 0.1
+    ahead = s - start
+    ahead -= length * math.floor(ahead / length + 0.5)
+    _, _, h0pp, h1pp = _blend(max(ahead, 0.0) / trans)
+    kc = _table(centre, 0, s, inv_ds, length)
+    lane_here = _table(lane_d, lane, s, inv_ds, length)
+    turn = (_table(lane_k, lane, s, inv_ds, length) * max(1.0 - kc * lane_here, 0.2)
+            + (error * h0pp + slope * trans * h1pp) / (trans * trans))
+    out[2] = turn / max(1.0 - kc * d, 0.2)
 
 
 @njit(cache=True)
