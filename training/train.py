@@ -182,19 +182,23 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
                     hook.stopping = "budget"
         # Still inside: a second Ctrl-C while saving stops at once (StopRequest).
         interrupted = stop.requested or hook.stopping == "interrupted"
-        display.finish("interrupted (Ctrl-C)" if interrupted else
-                       "time budget reached" if hook.stopping == "budget" else "done",
-                       complete=not interrupted)
         env.close()
         if runner.logger.writer is not None:
             runner.logger.writer.close()
-        policy = None
+        policy, plotted = None, None
         if out is not None:
+            display.phase(f"saving {out / 'policy.pt'} and the curves")
             if curves is not None:
                 curves.flush()
             training = {"iterations": done, "seconds": budget.elapsed()}
             policy = save_policy(runner, config, out / "policy.pt", training=training)
-            print(plot_curves(out / "curves.csv", out / "curves.png"), flush=True)
+            plotted = plot_curves(out / "curves.csv", out / "curves.png")
+        # 100 % once all of training's work is done (the CLI's export shows as its own line).
+        display.finish("interrupted (Ctrl-C)" if interrupted else
+                       "time budget reached" if hook.stopping == "budget" else "done",
+                       complete=not interrupted)
+        if plotted is not None:
+            print(plotted, flush=True)
     if interrupted:
         latest_checkpoint = None if out is None else out / f"model_{done - 1}.pt"
         raise TrainingInterrupted(done, latest_checkpoint, policy)

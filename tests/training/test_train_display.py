@@ -38,15 +38,17 @@ def test_default_output_is_a_few_lines_with_the_runs_totals_in_minutes_mode(
     assert "Learning iteration" not in out and "Storing git diff" not in out
     assert "\r" not in err  # captured stderr is not a terminal
     lines = err.splitlines()
-    assert 7 <= len(lines) <= 14, err  # setup, a line per tenth of 25 iterations, the end
+    assert 8 <= len(lines) <= 15, err  # setup, a line per tenth of 25 iterations, saving, end
     # Before the first iteration: what the wait is, and no ETA (compiling would inflate it).
     assert "building 4 env copies" in lines[0] and "compiling" in lines[1]
     assert all("% |" in line and "ETA" not in line for line in lines[:2])
     shown = counts(err)
-    assert len(shown) == len(lines) - 3
+    assert len(shown) == len(lines) - 4
     assert {total for _, total in shown} == {"~25"}  # the run's total, not a chunk's
     assert [d for d, _ in shown] == sorted(d for d, _ in shown)
-    assert "samples/s" in lines[-2] and "reward" in lines[-2] and "(60 min)" in lines[-2]
+    assert "samples/s" in lines[-3] and "reward" in lines[-3] and "(60 min)" in lines[-3]
+    # Saving policy.pt and the curves is a phase of its own, below 100 %.
+    assert "saving" in lines[-2] and "policy.pt and the curves" in lines[-2]
     # Only the end of training reads 100 %; the iterations' lines stay below it.
     assert lines[-1].startswith("train 100% |") and "it 25: done" in lines[-1]
     assert not any(line.startswith("train 100%") for line in lines[:-1])
