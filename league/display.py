@@ -12,8 +12,8 @@ budget left, which is exact whatever compiles: the run stops within one training
 it. The round cap is shown (``round 7 of 10``) only when a config sets one. A thread redraws
 the line twice a second on a terminal, so the clock moves and the count follows the workers;
 elsewhere (a pipe, a log) the line is printed once per tenth of the budget, as the other
-commands' lines are. Round lines and notes are printed in both cases and appended to the log
-with the time.
+commands' lines are, however long a phase runs. Round lines and notes are printed in both
+cases and appended to the log with the time.
 """
 
 from __future__ import annotations
@@ -32,6 +32,11 @@ REDRAW = 0.5
 """Seconds between two redraws by the display's thread."""
 BELOW_DONE = 0.99
 """Highest share shown while the run has work left."""
+
+
+def minutes_text(value: float) -> str:
+    """``30.0`` -> ``30``, ``0.25`` -> ``0.25``, ``0.1527`` -> ``0.15``."""
+    return f"{value:.2f}".rstrip("0").rstrip(".")
 
 
 class LeagueDisplay:
@@ -80,9 +85,10 @@ class LeagueDisplay:
     # ---- what is shown
 
     def start(self) -> None:
-        """Draw the line now and keep it moving (a terminal only; elsewhere per tenth)."""
+        """Draw the line now and keep it moving: redrawn on a terminal, a line on each new
+        tenth elsewhere (also while one phase runs long)."""
         self.draw(force=self.progress.terminal)
-        if self.progress.mode != "off" and self.progress.terminal:
+        if self.progress.mode != "off":
             self._thread = threading.Thread(target=self._tick, name="league-display",
                                             daemon=True)
             self._thread.start()
@@ -113,6 +119,8 @@ class LeagueDisplay:
                 text += f" {done}/{total}"
                 if self._unit:
                     text += f" {self._unit}"
+                if not done and self._phase == "train":
+                    text += ", starting"  # workers building the learners, kernels compiling
         return text
 
     def fraction(self) -> float:
@@ -145,9 +153,9 @@ class LeagueDisplay:
         except OSError:
             pass  # a log that cannot be written must not stop the league
 
-    def close(self, finished: bool, rounds_done: int) -> None:
-        """End the line after ``rounds_done`` rounds: at 100 % when the run ``finished`` its
-        work, else where it stood (``stopped``)."""
+    def close(self, finished: bool, rounds_done: int, why: str = "done") -> None:
+        """End the line after ``rounds_done`` rounds: at 100 % when the run ``finished`` (saying
+        ``why``: ``done``, ``budget spent``), else where it stood (``stopped``)."""
         self._closed.set()
         if self._thread is not None:
             self._thread.join()
@@ -155,7 +163,9 @@ class LeagueDisplay:
             self._rounds_done = rounds_done
             self._count = None
             if finished:
-                self._round, self._phase = max(rounds_done - 1, 0), "done"
+                self._phase = why
+                if why == "done":
+                    self._round = max(rounds_done - 1, 0)
                 self.progress.update(1.0, self.info(), eta=0.0, force=True)
             else:
                 self._phase = "stopped"

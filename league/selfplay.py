@@ -53,7 +53,7 @@ import numpy as np
 
 from h2h_racing.league.backends import JobsStopped
 from h2h_racing.league.config import DEFAULT_MAX_ROUNDS, LeagueConfig, LearnerSpec
-from h2h_racing.league.display import LeagueDisplay
+from h2h_racing.league.display import LeagueDisplay, minutes_text
 from h2h_racing.league.learners import (TrainJob, atomic, discard_pending, install_pending,
                                        read_progress, train_round)
 from h2h_racing.league.main_restore import KeepsBest, round_of
@@ -68,17 +68,8 @@ STOP_FILE = "stop-requested"
 """File in the league folder that asks the learners' workers to stop (``StopSwitch``)."""
 
 
-def _minutes(value: float) -> str:
-    """``30.0`` -> ``30``, ``0.25`` -> ``0.25``, ``0.1527`` -> ``0.15``."""
-    return f"{value:.2f}".rstrip("0").rstrip(".")
-
-
 class RoundStopped(Exception):
-    """The round stopped part-way (budget or stop request); ``phase`` is where."""
-
-    def __init__(self, phase: str) -> None:
-        super().__init__(phase)
-        self.phase = phase
+    """The round stopped part-way (budget or stop request); its one argument is the phase."""
 
 
 # ------------------------------------------------------------------ the league (driver)
@@ -228,7 +219,7 @@ class League(KeepsBest):
                       f"nothing to train")
             return self._end("rounds")
         if display.left() <= 0:
-            self._say(f"its {_minutes(minutes)}-minute budget is spent ({used:.1f} min over "
+            self._say(f"its {minutes_text(minutes)}-minute budget is spent ({used:.1f} min over "
                       f"{first} rounds in {self.folder}): nothing to train; give a larger "
                       f"--minutes for the league's time in all, or --this-run for more "
                       f"minutes now")
@@ -237,20 +228,19 @@ class League(KeepsBest):
         resumed = first or display.used or any(f"{spec.name}.trained_round" in meta
                                               for spec in cfg.learners)
         verb = f"resuming at round {first + 1}" if resumed else "starting"
-        self._say(f"{verb} in {self.folder}: {used:.1f} of {_minutes(minutes)} min used, "
+        self._say(f"{verb} in {self.folder}: {used:.1f} of {minutes_text(minutes)} min used, "
                   f"{display.left() / 60:.1f} left; log in {display.log_path}")
         display.phase(first, "starting", None, rounds_done=first)
         display.start()
         ended = "rounds"
         try:
             for round_index in range(first, cfg.max_rounds):
-                if self._stopping():
-                    ended = "stopped" if self.stop.requested else "budget"
-                    break
                 try:
+                    if self._stopping():
+                        raise RoundStopped("")  # before the round: nothing of it to keep
                     self.round(round_index)
                 except RoundStopped as stopped:
-                    self.kept = self._kept(round_index, stopped.phase)
+                    self.kept = self._kept(round_index, stopped.args[0])
                     ended = "stopped" if self.stop.requested else "budget"
                     break
                 finally:
@@ -258,7 +248,8 @@ class League(KeepsBest):
                 self.store.set_meta("round", str(round_index + 1))
                 self._show(round_index, display.elapsed() / 60.0)
         finally:
-            display.close(ended != "stopped", self._round())
+            display.close(ended != "stopped", self._round(),
+                          "budget spent" if ended == "budget" else "done")
         return self._end(ended)
 
     def _end(self, ended: str) -> str:
@@ -278,14 +269,15 @@ class League(KeepsBest):
         self.store.set_meta(ELAPSED, repr(self.display.elapsed()))
 
     def _kept(self, round_index: int, phase: str) -> str:
-        """What is kept of round ``round_index``, stopped in ``phase``."""
+        """What is kept of round ``round_index``, stopped in ``phase`` ("" before it)."""
         full = self.config.training.iterations_per_round
         trained = ", ".join(f"{name} {done}/{full}" for name, done in self._trained.items())
-        parts = [f"its training ({trained} iterations)" if trained else "no training"]
-        if phase != "train":
-            parts.append(f"{self._races[0]} of {self._races[1]} {phase} races")
-        return f"round {round_index + 1} stopped in its {phase} phase: kept " + \
-            " and ".join(parts)
+        if phase == "train":
+            kept = f"its training ({trained} iterations)" if trained else "no training"
+        else:
+            kept = f"its training and {self._races[0]} of {self._races[1]} {phase} races"
+        return f"round {round_index + 1} stopped in its {phase} phase: kept {kept}" if phase \
+            else ""
 
     def _say(self, text: str) -> None:
         """A line on the display and in the log, after the league's name."""
