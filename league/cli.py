@@ -202,9 +202,12 @@ def _cmd_league_train(args: argparse.Namespace) -> int:
                               {"out": str(out), "minutes": minutes, "this_run": False})
 
     def hard_stop() -> str:
-        return (f"[league {config.name}] stopped at once (Ctrl-C): the running round's "
+        line = (f"[league {config.name}] stopped at once (Ctrl-C): the running round's "
                 f"training and running races are lost, everything stored in "
                 f"{out / 'league.sqlite'} is kept; to resume: {resume()}")
+        if league is not None:
+            league.display.log(line)
+        return line
 
     backend = _backend(args)
     stop = StopSwitch(out / STOP_FILE, hard_stop=hard_stop).install()
