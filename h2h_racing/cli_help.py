@@ -16,7 +16,7 @@ EPILOG = """examples:
   h2h-racing race --track speedway --drivers league_racer,racing_line --save race.rrd
   h2h-racing evaluate --policy league_racer --against racing_line --track all --races 10
   h2h-racing train --track speedway --minutes 10 --out runs/speedway
-  h2h-racing league train --config recommended    # 30 minutes; --config smoke: under 1
+  h2h-racing league train --config recommended    # 30 minutes; --config smoke: under a minute
 
 Run 'h2h-racing COMMAND --help' for a command's options."""
 DRIVERS_HELP = ("comma-separated drivers, one per car: scripted (planner, racing_line, "
