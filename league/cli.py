@@ -217,12 +217,12 @@ def _cmd_league_train(args: argparse.Namespace) -> int:
         ended = "stopped" if stop.requested else league.run()
     except BaseException:
         if league is not None:
-            league.close(now=True)
+            league.close()
         else:
             backend.close(now=True)
         stop.uninstall()
         raise
-    league.close(now=True)  # race jobs a stop or the budget left running are not waited for
+    league.close()  # race jobs a stop or the budget left running are not waited for
     stop.uninstall()
     path = out / "league.sqlite"
     if ended == "stopped":

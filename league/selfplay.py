@@ -490,7 +490,8 @@ class League(KeepsBest):
                 record = dataclasses.replace(record, opponent="the anchors")
                 self.display.say(f"  {record.line()}")
 
-    def close(self, now: bool = False) -> None:
-        """Release the store and the backend (``now``: without waiting for running jobs)."""
+    def close(self) -> None:
+        """Release the store and the backend; race jobs a stop or the budget left running are
+        ended, not waited for (after a finished run none are)."""
         self.store.close()
-        self.backend.close(now=now)
+        self.backend.close(now=True)
