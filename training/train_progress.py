@@ -28,7 +28,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, TextIO
 
-from h2h_racing.progress import Mode, Progress, clock
+from h2h_racing.progress import NO_ETA, Mode, Progress, clock
 
 
 def _now() -> float:
@@ -272,8 +272,10 @@ class TrainDisplay:
         return "  ".join(parts)
 
     def phase(self, what: str) -> None:
-        """Show work between iterations (an evaluation) on the line, in place of its text."""
-        self.progress.update(min(self._done / max(self.iterations, 1), 0.98), what, force=True)
+        """Show work between iterations (an evaluation, the saving) on the line, in place of
+        its text, with no ETA (the iterations' rate says nothing of it)."""
+        self.progress.update(min(self._done / max(self.iterations, 1), 0.98), what,
+                             eta=NO_ETA, force=True)
 
     def clear(self) -> None:
         """Take the line off the terminal before something else prints there."""

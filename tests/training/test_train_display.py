@@ -49,6 +49,7 @@ def test_default_output_is_a_few_lines_with_the_runs_totals_in_minutes_mode(
     assert "samples/s" in lines[-3] and "reward" in lines[-3] and "(60 min)" in lines[-3]
     # Saving policy.pt and the curves is a phase of its own, below 100 %.
     assert "saving" in lines[-2] and "policy.pt and the curves" in lines[-2]
+    assert "ETA" not in lines[-2]  # the iterations' rate says nothing of the saving's time
     # Only the end of training reads 100 %; the iterations' lines stay below it.
     assert lines[-1].startswith("train 100% |") and "it 25: done" in lines[-1]
     assert not any(line.startswith("train 100%") for line in lines[:-1])
