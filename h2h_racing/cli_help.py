@@ -9,6 +9,7 @@ same help without passing a formatter around.
 from __future__ import annotations
 
 import argparse
+import shlex
 from typing import Any
 
 DESCRIPTION = "Race, train and rate cars on DeepRacer-style tracks."
@@ -76,3 +77,32 @@ def walk_parsers(parser: argparse.ArgumentParser, prefix: str = ""
             for name, child in action.choices.items():
                 found += walk_parsers(child, f"{prefix or parser.prog} {name}")
     return found
+
+
+def command_line(args: argparse.Namespace, parser: argparse.ArgumentParser,
+                 words: tuple[str, ...], replace: dict[str, Any] | None = None,
+                 leave_out: tuple[str, ...] = ("progress",)) -> str:
+    """The ``h2h-racing`` command line that runs ``args`` again: ``words`` (the command
+    names), then every option of ``parser`` whose value differs from its default (``replace``
+    overrides values first, a None value leaves the option out), shell-quoted.
+
+    Tuple values (comma-separated lists) are joined with commas; a true ``store_true`` flag is
+    written bare, a false ``--x/--no-x`` flag as ``--no-x``.
+    """
+    values = dict(vars(args), **(replace or {}))
+    parts = ["h2h-racing", *words]
+    for action in parser._actions:  # argparse has no public list of a parser's options
+        if not action.option_strings or action.dest in leave_out or action.dest == "help":
+            continue
+        value = values.get(action.dest, action.default)
+        if value is None or value == action.default:
+            continue
+        option = next(o for o in action.option_strings if o.startswith("--"))
+        if isinstance(action, argparse.BooleanOptionalAction):
+            parts.append(option if value else "--no-" + option[2:])
+        elif action.nargs == 0:
+            parts.append(option)
+        else:
+            text = ",".join(map(str, value)) if isinstance(value, (tuple, list)) else str(value)
+            parts += [option, text]
+    return shlex.join(parts)

@@ -13,7 +13,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from h2h_racing.cli_help import SEED_HELP, SPEC_HELP
+from h2h_racing.cli_help import SEED_HELP, SPEC_HELP, command_line
 from h2h_racing.config_rules import RACE_TYPES
 from h2h_racing.progress import Progress, add_progress_flag, progress_mode
 
@@ -90,25 +90,7 @@ def _resume_command(args: argparse.Namespace, out: Path) -> str:
 def _command_line(args: argparse.Namespace, replace: dict[str, object]) -> str:
     """``args``' ``h2h-racing train`` command line, shell-quoted: every option of train's
     parser whose value differs from its default (``replace`` first; ``--progress`` left out)."""
-    import shlex
-
-    values = {**vars(args), **replace}
-    parser = args.train_parser
-    parts = ["h2h-racing", "train"]
-    for action in parser._actions:  # argparse has no public list of a parser's options
-        if not action.option_strings or action.dest in ("help", "progress"):
-            continue
-        value = values.get(action.dest, action.default)
-        if value is None or value == action.default:
-            continue
-        option = next(o for o in action.option_strings if o.startswith("--"))
-        if isinstance(action, argparse.BooleanOptionalAction):
-            parts.append(option if value else "--no-" + option[2:])
-        elif action.nargs == 0:
-            parts.append(option)
-        else:
-            parts += [option, str(value)]
-    return shlex.join(parts)
+    return command_line(args, args.train_parser, ("train",), replace)
 
 
 _WARNED_ALONE: set[str] = set()

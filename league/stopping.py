@@ -13,14 +13,13 @@ contact callbacks, which prints ``Exception ignored from cffi callback`` and swa
   loops check at their safe points; a second Ctrl-C ends the process at once, with one line
   and exit status 130 (128 + SIGINT, the shell's convention).
 
-``resume_command`` writes back the command line that resumes a stopped command.
+``resume_command`` (``h2h_racing.cli_help.command_line``) writes back the command line that
+resumes a stopped command.
 """
 
 from __future__ import annotations
 
-import argparse
 import os
-import shlex
 import signal
 import sys
 import threading
@@ -28,6 +27,8 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
+
+from h2h_racing.cli_help import command_line as resume_command  # noqa: F401  (re-exported)
 
 EXIT_INTERRUPTED = 128 + signal.SIGINT
 """Exit status of a command stopped by Ctrl-C (130)."""
@@ -121,30 +122,3 @@ def stop_file_exists(path: str | None) -> bool:
     return path is not None and os.path.exists(path)
 
 
-def resume_command(args: argparse.Namespace, parser: argparse.ArgumentParser,
-                   words: tuple[str, ...], replace: dict[str, Any] | None = None,
-                   leave_out: tuple[str, ...] = ("progress",)) -> str:
-    """The ``h2h-racing`` command line that runs ``args`` again: ``words`` (the command
-    names), then every option of ``parser`` whose value differs from its default (``replace``
-    overrides values first, a None value leaves the option out), shell-quoted.
-
-    Tuple values (comma-separated lists) are joined with commas; a true ``store_true`` flag is
-    written bare, a false ``--x/--no-x`` flag as ``--no-x``.
-    """
-    values = dict(vars(args), **(replace or {}))
-    parts = ["h2h-racing", *words]
-    for action in parser._actions:  # argparse has no public list of a parser's options
-        if not action.option_strings or action.dest in leave_out or action.dest == "help":
-            continue
-        value = values.get(action.dest, action.default)
-        if value is None or value == action.default:
-            continue
-        option = next(o for o in action.option_strings if o.startswith("--"))
-        if isinstance(action, argparse.BooleanOptionalAction):
-            parts.append(option if value else "--no-" + option[2:])
-        elif action.nargs == 0:
-            parts.append(option)
-        else:
-            text = ",".join(map(str, value)) if isinstance(value, (tuple, list)) else str(value)
-            parts += [option, text]
-    return shlex.join(parts)
