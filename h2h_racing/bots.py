@@ -24,7 +24,8 @@ and the bot's heading is the track's plus the angle of its lateral motion::
 The next change starts a uniform draw from [``gap_min``, ``gap_max``] seconds after the end
 of the last one (the first one that long after the start), as in DeepRacer. Every function
 works on ``(E, B)`` arrays (env copies, bots) at once; the poses are evaluated in compiled
-kernels from the track's uniform tables (``TrackLookup``: centre point, heading, widths).
+kernels from the track's uniform tables (``TrackLookup``: centre point, heading, widths), each
+copy's from its own track's (``TrackTables``).
 """
 
 from __future__ import annotations
@@ -36,10 +37,11 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-from h2h_racing.track_lookup import lookup, wrap_angle
+from h2h_racing import track_tables as tt
+from h2h_racing.track_lookup import lookup_span, wrap_angle
 
 if TYPE_CHECKING:
-    from h2h_racing.track_lookup import TrackLookup
+    from h2h_racing.track_tables import TrackTables
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -53,14 +55,15 @@ def lane_blend(u: FloatArray) -> FloatArray:
     return 0.5 - 0.5 * np.cos(np.pi * np.clip(u, 0.0, 1.0))
 
 
-def bot_poses(tables: TrackLookup, start: FloatArray, lane_from: FloatArray,
-              lane_to: FloatArray, change_start: FloatArray, clock: FloatArray,
-              duration: float, speed: float,
+def bot_poses(tables: TrackTables, track_index: npt.NDArray[np.int64], start: FloatArray,
+              lane_from: FloatArray, lane_to: FloatArray, change_start: FloatArray,
+              clock: FloatArray, duration: float, speed: float,
               ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
     """Return where the bots are at their copy's bot clock.
 
     Args:
-        tables: The track's tables (``TrackLookup``), in driving order.
+        tables: The tracks' tables (``TrackTables``), in driving order.
+        track_index: The track of each copy, (E,).
         start: Unwrapped arc position of each bot at clock 0, (E, B) [m].
         lane_from: Lane each bot's last lane change started from, (E, B) (+1 / -1).
         lane_to: Lane it goes to (or is in), (E, B).
@@ -81,9 +84,8 @@ def bot_poses(tables: TrackLookup, start: FloatArray, lane_from: FloatArray,
     command = np.zeros((shape[0] * shape[1], 3))
     move_kernel(np.ascontiguousarray(start, dtype=np.float64), lane_from, lane_to,
                 change_start, np.asarray(clock, dtype=np.float64), moved, duration, speed, 0.0,
-                tables.x, tables.y, tables.heading, tables.width_left, tables.width_right,
-                tables.inv_ds, tables.length, distance, s, d, position, yaw, scratch,
-                np.zeros(shape), command)
+                np.asarray(track_index, dtype=np.int64), tables.scalars, tables.fields,
+                distance, s, d, position, yaw, scratch, np.zeros(shape), command)
     return distance, s, d, position, yaw
 
 
@@ -113,10 +115,10 @@ def advance_clock_kernel(time, steps, done, pause_until, dt, clock, moved,
 
 @njit(cache=True)
 def move_kernel(start, lane_from, lane_to, change_start, clock, moved, duration, speed,
-                inv_dt, x_tab, y_tab, heading_tab, left_tab, right_tab, inv_ds, length,
-                distance, s, d, position, yaw, velocity, bot_speed,
-                command):  # pragma: no cover
-    """The bots' poses at their clocks (module docstring), from the track's tables.
+                inv_dt, track_index, track_scalars, fields, distance, s, d, position, yaw,
+                velocity, bot_speed, command):  # pragma: no cover
+    """The bots' poses at their clocks (module docstring), from the tables of each copy's
+    track (``track_index`` (E,) into a ``TrackTables``' ``scalars`` and ``fields``).
 
     ``position`` and ``yaw`` are read (the poses at the start of the step) and overwritten;
     ``velocity`` (E, B, 2) [m/s] and ``command`` (E * B, 3) = (vx, vy, omega) get the
@@ -126,7 +128,14 @@ def move_kernel(start, lane_from, lane_to, change_start, clock, moved, duration,
     """
     num_envs, num_bots = start.shape
     half_pi_t = 0.5 * math.pi / duration
+    x_tab, y_tab, heading_tab = fields[tt.X], fields[tt.Y], fields[tt.HEADING]
+    left_tab, right_tab = fields[tt.WIDTH_LEFT], fields[tt.WIDTH_RIGHT]
     for e in range(num_envs):
+        t = track_index[e]
+        length = track_scalars[t, tt.LENGTH]
+        inv_ds = track_scalars[t, tt.INV_DS]
+        first = int(track_scalars[t, tt.LUT_FIRST])
+        count = int(track_scalars[t, tt.LUT_COUNT])
         for j in range(num_bots):
             dist = start[e, j] + speed * clock[e]
             distance[e, j] = dist
@@ -138,14 +147,14 @@ def move_kernel(start, lane_from, lane_to, change_start, clock, moved, duration,
             lane = lane_from[e, j] + step * (0.5 - 0.5 * math.cos(math.pi * uc))
             rate = step * half_pi_t * math.sin(math.pi * uc) if 0.0 < u < 1.0 else 0.0
             if lane >= 0.0:
-                half = 0.5 * lookup(left_tab, sj, inv_ds, length)
+                half = 0.5 * lookup_span(left_tab, first, count, sj, inv_ds, length)
             else:
-                half = 0.5 * lookup(right_tab, sj, inv_ds, length)
+                half = 0.5 * lookup_span(right_tab, first, count, sj, inv_ds, length)
             dj = lane * half
             d[e, j] = dj
-            psi = lookup(heading_tab, sj, inv_ds, length)
-            px = lookup(x_tab, sj, inv_ds, length) - dj * math.sin(psi)
-            py = lookup(y_tab, sj, inv_ds, length) + dj * math.cos(psi)
+            psi = lookup_span(heading_tab, first, count, sj, inv_ds, length)
+            px = lookup_span(x_tab, first, count, sj, inv_ds, length) - dj * math.sin(psi)
+            py = lookup_span(y_tab, first, count, sj, inv_ds, length) + dj * math.cos(psi)
             new_yaw = wrap_angle(psi + math.atan2(rate * half, speed))
             k = e * num_bots + j
             vx = (px - position[e, j, 0]) * inv_dt

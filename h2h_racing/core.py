@@ -23,14 +23,28 @@ point ``round_robin_advance`` of a lap further round; with ``alternate_direction
 episode drives the track the other way round (``RaceCore.reset(reverse=...)``; every copy of a
 core drives the same direction, so the flip needs a reset of every copy at once).
 
+Several tracks: ``RaceCore(config, [track_a, track_b, ...], num_envs)`` races K tracks at
+once, env copy e on ``tracks[track_index[e]]`` (by default the copies split into K blocks in
+track order). Every kernel reads the tables of all K tracks (``TrackTables``) at the copy's
+track index, doing the same arithmetic as on one track's tables; each track has a random
+generator of its own (``rngs``), which draws for its copies exactly as the generator of a core
+of that track alone would. So a copy on track T races, to the bit, as the same copy of a core
+of T alone, seeded with that track's seed, at the same place in the shared Space (pymunk works
+in world coordinates: the last bits of a copy's motion depend on its offset there, as between
+the copies of a one-track core). A one-track core is the case K = 1. Drivers written for one
+track drive the copies of track k through ``track_views()``: each view reads the core's arrays
+of those copies as a one-track core.
+
 The core is split by concept: its arrays and their pickling in ``core_state``, reset-time
-placement in ``core_spawn``, infractions, re-placement and parking in ``core_penalties``, and
-the step's report (``StepEvents``, re-exported here) in ``core_events``.
+placement in ``core_spawn``, infractions, re-placement and parking in ``core_penalties``, the
+step's report (``StepEvents``, re-exported here) in ``core_events``, the tracks of the copies
+(their tables, layout, generators and views) in ``core_tracks``, and the one-track views of a
+core of several tracks in ``core_view``.
 """
 
 from __future__ import annotations
 
-import math
+from collections.abc import Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -42,10 +56,10 @@ from h2h_racing.core_events import StepEvents
 from h2h_racing.core_penalties import CorePenalties
 from h2h_racing.core_spawn import CoreSpawn, check_rolling
 from h2h_racing.core_state import CoreState
+from h2h_racing.core_tracks import ENV_GAP, PARK_MARGIN, CoreTracks, track_index_of
 from h2h_racing.dynamics import SingleTrackModel
 from h2h_racing.physics import PhysicsWorld
 from h2h_racing.track import Track
-from h2h_racing.track_lookup import TrackLookup
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -53,32 +67,38 @@ IntArray = npt.NDArray[np.int64]
 
 __all__ = ["ENV_GAP", "PARK_MARGIN", "RaceCore", "StepEvents"]
 
-ENV_GAP = 30.0
-"""Empty space between the bounding boxes of neighbouring env copies in the shared Space [m]."""
-PARK_MARGIN = 1.0
-"""Parked cars wait this far beyond the track's bounding box [m] (inside the projection
-grid's margin, so projecting them stays cheap)."""
 
-
-class RaceCore(CoreState, CoreSpawn, CorePenalties):
-    """Batched race simulation over ``num_envs`` copies of one track.
+class RaceCore(CoreTracks, CoreState, CoreSpawn, CorePenalties):
+    """Batched race simulation over ``num_envs`` copies of one track, or of several.
 
     Args:
         config: Environment configuration.
-        track: The track every copy races on.
+        track: The track every copy races on, or a sequence of K tracks.
         num_envs: Number of env copies E.
+        track_index: The track of each copy, (E,) ints in [0, K); None splits the copies into
+            K blocks in track order (copy e races track ``e * K // E``), and then needs
+            ``num_envs >= K``.
     """
 
-    def __init__(self, config: EnvConfig, track: Track, num_envs: int = 1) -> None:
+    def __init__(self, config: EnvConfig, track: Track | Sequence[Track], num_envs: int = 1,
+                 track_index: npt.ArrayLike | None = None) -> None:
         if not isinstance(num_envs, int) or num_envs < 1:
             raise ValueError(f"num_envs must be an int >= 1, got {num_envs!r}")
+        tracks = (track,) if isinstance(track, Track) else tuple(track)
+        if not tracks or not all(isinstance(t, Track) for t in tracks):
+            raise TypeError(f"track must be a Track or a non-empty sequence of Tracks, got "
+                            f"{type(track).__name__}")
+        self.track_index = track_index_of(track_index, num_envs, len(tracks))
+        """The track of each env copy, (E,): copy e races ``tracks[track_index[e]]``."""
+        self.num_tracks = len(tracks)
+        """Tracks K."""
         self.config = config
         self.rules = config.race_rules
-        self.forward_track = track
-        """The track as given (driven in its own direction when not reversed)."""
-        self._reverse_track: Track | None = None
+        self.forward_tracks = tracks
+        """The tracks as given (driven in their own direction when not reversed)."""
+        self._reverse_tracks: tuple[Track, ...] | None = None
         self.is_reversed = False
-        """Whether the current episodes drive ``forward_track`` the other way round."""
+        """Whether the current episodes drive ``forward_tracks`` the other way round."""
         self.num_envs = num_envs
         self.num_cars = config.num_cars
         self.num_obstacles = config.obstacle_count
@@ -86,7 +106,7 @@ class RaceCore(CoreState, CoreSpawn, CorePenalties):
         """Bot cars per env copy B."""
         self.dt = config.step_dt
         self.model = SingleTrackModel(config.car)
-        self._use_track(track)
+        self._use_tracks(tracks)
         self.episodes = np.zeros(num_envs, dtype=np.int64)
         """Episodes started by each copy since the last seeded reset, (E,) (round-robin starts
         and alternating directions count them)."""
@@ -96,51 +116,19 @@ class RaceCore(CoreState, CoreSpawn, CorePenalties):
         self._wheels = np.array([[car.cg_to_front, half_track], [car.cg_to_front, -half_track],
                                  [-car.cg_to_rear, half_track], [-car.cg_to_rear, -half_track]])
         self._wheel_reach = float(np.hypot(self._wheels[:, 0], self._wheels[:, 1]).max())
-        self._min_half_width = float(min(track.width_left.min(), track.width_right.min()))
-        xmin, ymin, xmax, ymax = track.bounds
-        park_room = PARK_MARGIN + 0.5 * self.num_cars
-        pitch_x = (xmax - xmin) + park_room + ENV_GAP
-        pitch_y = (ymax - ymin) + ENV_GAP
-        cols = math.ceil(math.sqrt(num_envs))
-        e = np.arange(num_envs)
-        self.env_offset = np.stack([(e % cols) * pitch_x, (e // cols) * pitch_y], axis=1)
-        """World offset of each env copy in the shared pymunk Space, shape (E, 2), metres."""
-        k = np.arange(self.num_cars)
-        self._park = np.stack([np.full(self.num_cars, xmax + PARK_MARGIN),
-                               ymin + 0.5 * k], axis=1)
-        self.rng = np.random.default_rng()
+        self._lay_out()
         self._bot_duration = config.bot_lane_change_distance / config.bot_speed
         if self.num_bots:
-            # Fail at construction, not at the first reset, when the lap cannot hold the bots.
-            spawn.bot_layout(track.length, self.rng, 1, self.num_bots, False, self.inner_sign,
-                             np.zeros(1), self._grid_length())
+            # Fail at construction, not at the first reset, when a lap cannot hold the bots.
+            for t in tracks:
+                spawn.bot_layout(t.length, np.random.default_rng(0), 1, self.num_bots, False,
+                                 1, np.zeros(1), self._grid_length())
         self.max_cycles = config.max_cycles
         """Steps after which every car is truncated (the env may change it at run time)."""
         self.world: PhysicsWorld | None = None
+        # The rules kernel's packed constants, built on the first step.
+        self._rule_args: FloatArray | None = None
         self._allocate()
-
-    def _use_track(self, track: Track) -> None:
-        """Drive ``track`` (one direction of ``forward_track``) from the next spawn on."""
-        self.track = track
-        """The track in the current driving direction (``forward_track`` or its reverse)."""
-        self._projector = track.projector()
-        self.lookup = TrackLookup.from_track(track)
-        """Uniform tables of the track's fields for the compiled kernels."""
-        lut = self.lookup
-        # The state observation's tables in one block (one kernel argument).
-        self._track_tables = np.stack([lut.heading, lut.curvature, lut.width_left,
-                                       lut.width_right])
-        # The rules kernel's packed constants, built on the next step (they need the wheels).
-        self._rule_args: tuple[FloatArray, FloatArray, FloatArray] | None = None
-        self.inner_sign = 1 if track.is_ccw else -1
-
-    def _set_direction(self, reverse: bool) -> None:
-        if reverse == self.is_reversed:
-            return
-        if reverse and self._reverse_track is None:
-            self._reverse_track = self.forward_track.reversed()
-        self._use_track(self._reverse_track if reverse else self.forward_track)
-        self.is_reversed = bool(reverse)
 
     def _alternated(self) -> bool:
         """Whether the next episode drives reversed under ``alternate_direction`` (odd
@@ -170,13 +158,9 @@ class RaceCore(CoreState, CoreSpawn, CorePenalties):
     @property
     def episode_progress(self) -> FloatArray:
         """Percent of a lap driven since the episode start, (E, N) (DeepRacer's progress)."""
-        return (self.distance - self.start_distance) * (100.0 / self.track.length)
+        return (self.distance - self.start_distance) * (100.0 / self._length)[:, None]
 
     # ------------------------------------------------------------------ reset
-    def seed(self, seed: int | None) -> None:
-        """Replace the core's random generator (the only source of randomness)."""
-        self.rng = np.random.default_rng(seed)
-
     def reset(self, seed: int | None = None, slots: IntArray | None = None,
               start: FloatArray | None = None, reverse: bool | None = None,
               rolling: float = 0.0) -> None:
@@ -255,26 +239,38 @@ class RaceCore(CoreState, CoreSpawn, CorePenalties):
         every car of the copy is done, when its clock stops too); the bodies get the velocity
         that carries them from their pose now to their pose at the end of the step.
         """
-        cfg, lut = self.config, self.lookup
+        cfg, tables = self.config, self.tables
         moved = self._bot_moved
         if bots.advance_clock_kernel(self.time, self.steps, self.done, self.bot_pause_until,
                                      self.dt, self.bot_clock, moved, self.bot_next_change):
-            bots.schedule_lane_changes(
-                self.bot_clock, self.bot_next_change, self.bot_lane_from, self.bot_lane,
-                self.bot_change_start, self._bot_duration, cfg.bot_lane_change_min,
-                cfg.bot_lane_change_max, self.rng)
+            # Each track's generator draws for its own copies' changes.
+            names = ("bot_clock", "bot_next_change", "bot_lane_from", "bot_lane",
+                     "bot_change_start")
+            for k, rows in self._track_rows():
+                arrays = [getattr(self, name)[rows] for name in names]
+                bots.schedule_lane_changes(*arrays, self._bot_duration, cfg.bot_lane_change_min,
+                                           cfg.bot_lane_change_max, self.rngs[k])
+                if not isinstance(rows, slice):  # fancy indexing copied them: write back
+                    for name, array in zip(names, arrays):
+                        getattr(self, name)[rows] = array
         bots.move_kernel(self.bot_start, self.bot_lane_from, self.bot_lane,
                          self.bot_change_start, self.bot_clock, moved, self._bot_duration,
-                         cfg.bot_speed, 1.0 / self.dt, lut.x, lut.y, lut.heading,
-                         lut.width_left, lut.width_right, lut.inv_ds, lut.length,
-                         self.bot_distance, self.bot_s, self.bot_d, self.bot_position,
-                         self.bot_yaw, self.bot_velocity, self.bot_speed,
+                         cfg.bot_speed, 1.0 / self.dt, self.track_index, tables.scalars,
+                         tables.fields, self.bot_distance, self.bot_s, self.bot_d,
+                         self.bot_position, self.bot_yaw, self.bot_velocity, self.bot_speed,
                          self.world.bot_command)
 
-    def _sync_physics(self) -> None:
-        """Write every body's pose and velocity into pymunk (after resets and teleports)."""
+    def _sync_physics(self, mask: BoolArray | None = None) -> None:
+        """Write the pose and velocity of every body of the copies in ``mask`` (E,; None: of
+        every copy) into pymunk (after their resets and teleports).
+
+        The bodies of the other copies keep pymunk's own state, to the bit: writing theirs
+        back from the core's arrays would nudge them (a bot is where its lane puts it, pymunk
+        a rounding away; a car's position goes through its copy's world offset and back), so
+        that one copy's re-placement would move the last bits of every other copy's race.
+        """
         assert self.world is not None
-        e, k = self.num_envs, self.num_obstacles
+        e, n, k, b = self.num_envs, self.num_cars, self.num_obstacles, self.num_bots
         car_pos = (self.position + self.env_offset[:, None, :]).reshape(-1, 2)
         obs_pos = (self.obstacle_position + self.env_offset[:, None, :]).reshape(-1, 2)
         bot_pos = (self.bot_position + self.env_offset[:, None, :]).reshape(-1, 2)
@@ -283,8 +279,14 @@ class RaceCore(CoreState, CoreSpawn, CorePenalties):
                                 self.bot_yaw.reshape(-1)])
         velocity = np.concatenate([self.velocity.reshape(-1, 2), np.zeros((e * k, 2)),
                                    self.bot_velocity.reshape(-1, 2)])
-        angular = np.concatenate([self.yaw_rate.reshape(-1), np.zeros(e * k),
-                                  np.zeros(e * self.num_bots)])
+        angular = np.concatenate([self.yaw_rate.reshape(-1), np.zeros(e * k), np.zeros(e * b)])
+        if mask is not None and not mask.all():
+            keep = ~np.concatenate([np.repeat(mask, n), np.repeat(mask, k), np.repeat(mask, b)])
+            state = self.world.state
+            position[keep] = state[keep, 0:2]
+            angle[keep] = state[keep, 2]
+            velocity[keep] = state[keep, 3:5]
+            angular[keep] = state[keep, 5]
         self.world.set_state(position, angle, velocity, angular)
 
     # ------------------------------------------------------------------ step
@@ -303,7 +305,7 @@ class RaceCore(CoreState, CoreSpawn, CorePenalties):
         world = self.world
         if world is None:
             raise RuntimeError("call reset() before step()")
-        cfg, rules, track = self.config, self.rules, self.track
+        cfg, rules, tables = self.config, self.rules, self.tables
         e, n = self.num_envs, self.num_cars
         dt = self.dt
         racing = self._racing
@@ -320,8 +322,8 @@ class RaceCore(CoreState, CoreSpawn, CorePenalties):
         world.step(dt, cfg.physics_substeps)
 
         # Phase 2: rules on the new snapshot, per car in one compiled pass.
-        proj = self._projector
-        scalars, grid, widths = self._rule_args or self._pack_rule_args()
+        if self._rule_args is None:
+            self._rule_args = race.pack_rule_scalars(self.dt, self.rules, self._wheel_reach)
         step_distance = np.empty((e, n))
         # One fresh block for the three flags (a compiled call costs per array argument).
         off_track, reversed_, immobilised = flags = np.empty((3, e, n), dtype=bool)
@@ -329,9 +331,10 @@ class RaceCore(CoreState, CoreSpawn, CorePenalties):
         event, out_of_time = race.advance_cars(
             world.state, self.env_offset, self._wheels, racing, self.time, self.steps,
             rules.time_limit, self.max_cycles, self._car_vectors, self._car_floats,
-            self._car_counts, self._car_flags, scalars, self._points, self._selected,
-            self._wheel_first, self._scratch, grid, proj.start, proj.cert, proj.tab,
-            proj.tab_full, widths, step_distance, flags, laps)
+            self._car_counts, self._car_flags, self._rule_args, self._points,
+            self._point_track, self._selected, self._wheel_first, self._scratch,
+            self.track_index, tables.scalars, tables.fields, tables.start, tables.cert,
+            tables.tab, tables.tab_full, step_distance, flags, laps)
         contact_a, contact_b = world.pop_contacts()
 
         # Laps.
@@ -353,7 +356,7 @@ class RaceCore(CoreState, CoreSpawn, CorePenalties):
             if with_bot.any():
                 bot_fault, bot_collided, bot_events, pause = race.judge_bot_contacts(
                     contact_a[with_bot], contact_b[with_bot], e, n, first_bot, self.num_bots,
-                    self.s, self.bot_s, track.length, racing, self.done)
+                    self.s, self.bot_s, self._length, racing, self.done)
                 crashed |= bot_fault
                 collided |= bot_collided
                 if pause.any():
@@ -380,7 +383,7 @@ class RaceCore(CoreState, CoreSpawn, CorePenalties):
             passed, defended = self._passed, self._defended
             any_passed, any_defended = race.pairs_kernel(
                 self.distance, still, self.speed, self._pair_floats, self._pair_flags,
-                track.length, dt, rules.defence_gap, rules.defence_time)
+                self._length, dt, rules.defence_gap, rules.defence_time)
             if any_passed:
                 overtakes_now = passed.sum(axis=2)
                 overtaken_now = passed.sum(axis=1)
@@ -423,7 +426,7 @@ class RaceCore(CoreState, CoreSpawn, CorePenalties):
                     replaced = self._replace(replaced)
                 if newly_done.any():
                     self._park_cars(newly_done)
-                self._sync_physics()
+                self._sync_physics((replaced | newly_done).any(axis=1))
                 # Gaps before the next step must see the re-placed cars where they now are.
                 self._gap[...] = self.distance[:, :, None] - self.distance[:, None, :]
             self._pending_any = bool(self.pending_replace.any())
@@ -438,21 +441,11 @@ class RaceCore(CoreState, CoreSpawn, CorePenalties):
             collisions=collision_events, passes=passes, bot_contacts=bot_events,
             bots_paused=bots_paused)
 
-    def _pack_rule_args(self) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """Pack the rules kernel's constants of the current track (see race.advance_cars)."""
-        proj, lut = self._projector, self.lookup
-        self._rule_args = (
-            race.pack_rule_scalars(self.dt, self.rules, proj, lut, self._min_half_width,
-                                   self._wheel_reach),
-            np.concatenate([proj.origin, proj.hi]).astype(np.float64),
-            np.stack([lut.width_left, lut.width_right]))
-        return self._rule_args
-
     def _complete_laps(self, completed: BoolArray, laps: IntArray,
                        step_distance: FloatArray) -> BoolArray:
         """Record lap times for cars that completed a lap; return those that finished."""
-        track, rules = self.track, self.rules
-        line = self.lap_origin + laps * track.length
+        rules = self.rules
+        line = self.lap_origin + laps * self._length[:, None]
         cross = race.crossing_time(self.time[:, None], self.dt, self.distance, step_distance,
                                    line)
         lap_time = cross - self.lap_start_time

@@ -10,6 +10,8 @@ parked off the track. ``RaceCore`` (``h2h_racing.core``) mixes ``CorePenalties``
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import numpy.typing as npt
 
@@ -23,6 +25,9 @@ from h2h_racing.replacement import (
     place_kernel,
 )
 from h2h_racing.track_lookup import wrap_arc
+
+if TYPE_CHECKING:
+    from h2h_racing.track import Track
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -66,7 +71,7 @@ class CorePenalties:
         # clear (DeepRacer). A few contacts per step at most: this loop is over contact events.
         for env, car, k in obstacle_hits:
             if crash[env, car] and infraction[env, car]:
-                ahead = wrap_arc(self.obstacle_s[env, k] - self.s[env, car], self.track.length)
+                ahead = wrap_arc(self.obstacle_s[env, k] - self.s[env, car], self._length[env])
                 self.replace_distance[env, car] = (self.distance[env, car] + ahead
                                                    - RESET_BEHIND_OBSTACLE)
                 # The box's side of the centre line (0 for a box on it: the nearest lane).
@@ -76,12 +81,22 @@ class CorePenalties:
     def _replace(self, mask: BoolArray) -> BoolArray:
         """Put frozen cars back at their re-placement distance, on their re-placement lane
         (or the nearest one), on the first candidate spot clear of every other body
-        (``h2h_racing.replacement``).
+        (``h2h_racing.replacement``), one track at a time.
 
         A car with no clear spot stays frozen for one more step (the clock runs), parked off
         the track (``waiting``), and is tried again then. Returns the cars placed, (E, N).
         """
-        track, cfg = self.track, self.config
+        placed = np.zeros_like(mask)
+        for k, rows in self._track_rows(mask.any(axis=1)):
+            chosen = np.zeros_like(mask)
+            chosen[rows] = mask[rows]
+            self._replace_on(self.tracks[k], chosen, placed)
+        return placed
+
+    def _replace_on(self, track: Track, mask: BoolArray, placed: BoolArray) -> None:
+        """``_replace`` for the cars in ``mask``, all of copies racing ``track``; marks those
+        placed in ``placed``."""
+        cfg = self.config
         env_idx, car_idx = np.nonzero(mask)
         target = self.replace_distance[env_idx, car_idx]
         chosen = self.replace_lane[env_idx, car_idx]
@@ -117,9 +132,7 @@ class CorePenalties:
         self.waiting[env_idx, car_idx] = False
         self.resets[env_idx, car_idx] += 1
         self.lap_resets[env_idx, car_idx] += 1
-        placed = np.zeros_like(mask)
         placed[env_idx, car_idx] = True
-        return placed
 
     def _wait_off_track(self, env_idx: IntArray, car_idx: IntArray) -> None:
         """Park cars that found no clear spot while they wait: left where they stopped, cars
@@ -128,7 +141,7 @@ class CorePenalties:
         on_env, on_car = env_idx[first], car_idx[first]
         self.final_position[on_env, on_car] = self.position[on_env, on_car]
         self.final_yaw[on_env, on_car] = self.yaw[on_env, on_car]
-        self.position[env_idx, car_idx] = self._park[car_idx]
+        self.position[env_idx, car_idx] = self._park[env_idx, car_idx]
         self.velocity[env_idx, car_idx] = 0.0
         self.yaw_rate[env_idx, car_idx] = 0.0
         self.speed[env_idx, car_idx] = 0.0
@@ -143,7 +156,7 @@ class CorePenalties:
         self.final_position[on_env, on_car] = self.position[on_env, on_car]
         self.final_yaw[on_env, on_car] = self.yaw[on_env, on_car]
         self.waiting[env_idx, car_idx] = False
-        self.position[env_idx, car_idx] = self._park[car_idx]
+        self.position[env_idx, car_idx] = self._park[env_idx, car_idx]
         self.velocity[env_idx, car_idx] = 0.0
         self.yaw_rate[env_idx, car_idx] = 0.0
         self.speed[env_idx, car_idx] = 0.0

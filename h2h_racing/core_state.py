@@ -175,6 +175,7 @@ class CoreState:
         # cars near an edge.
         capacity = e * n * (1 + len(self._wheels))
         self._points = zeros((capacity, 2))
+        self._point_track = zeros(capacity, dtype=np.int64)
         self._selected = zeros(capacity, dtype=bool)
         # Rows: each car's displacement this step, then the s and d of the projected points.
         self._scratch = zeros((3, capacity))
@@ -212,6 +213,7 @@ class CoreState:
             for name in names:
                 del state[name]
         del state["_flat_dynamics"]
+        state["_views"] = None  # rebuilt on demand
         return state
 
     def __setstate__(self, state: dict[str, object]) -> None:

@@ -198,13 +198,14 @@ class PhysicsWorld:
         # Shapes of dynamic and kinematic bodies are re-indexed at the start of every
         # pymunk step, so teleported bodies need no explicit re-index.
         pb.set_space_bodies(self.space, _STATE_FIELDS, self._write_state_buffer)
+        # What pymunk now holds, until the next step reads it back: a later write that keeps
+        # some bodies as they are reads them here.
+        self._state[...] = write
 
     @property
     def state(self) -> FloatArray:
-        """Every body's state after the last step, (C + O + Q, 6): x, y, angle, vx, vy, omega.
-
-        The array is refreshed in place by each :meth:`step`.
-        """
+        """Every body's state, (C + O + Q, 6): x, y, angle, vx, vy, omega, as pymunk holds it
+        after the last :meth:`step` or :meth:`set_state` (refreshed in place by each)."""
         return self._state
 
     @property

@@ -19,8 +19,9 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-from h2h_racing.track_projection import project_kernel
-from h2h_racing.track_lookup import lookup, wrap_arc
+from h2h_racing import track_tables as tt
+from h2h_racing.track_lookup import lookup_span, wrap_arc
+from h2h_racing.track_tables import project_on
 
 
 FloatArray = npt.NDArray[np.float64]
@@ -106,7 +107,7 @@ def judge_contacts(body_a: IntArray, body_b: IntArray, num_envs: int, num_cars: 
 
 def judge_bot_contacts(body_a: IntArray, body_b: IntArray, num_envs: int, num_cars: int,
                        first_bot: int, num_bots: int, s: FloatArray, bot_s: FloatArray,
-                       length: float, racing: BoolArray, done: BoolArray,
+                       length: float | FloatArray, racing: BoolArray, done: BoolArray,
                        ) -> tuple[BoolArray, BoolArray, list[tuple[int, int, int, bool]],
                                   BoolArray]:
     """Decide who caused each new contact between a car and a bot, as DeepRacer judges it.
@@ -127,7 +128,7 @@ def judge_bot_contacts(body_a: IntArray, body_b: IntArray, num_envs: int, num_ca
         num_bots: Bots per env copy B.
         s: Arc position of each car, shape (E, N) [m].
         bot_s: Arc position of each bot, shape (E, B) [m].
-        length: Lap length L [m].
+        length: Lap length L [m], one for every copy or each copy's, shape (E,).
         racing: Which cars are racing, shape (E, N).
         done: Which cars are done (parked), shape (E, N).
 
@@ -135,6 +136,7 @@ def judge_bot_contacts(body_a: IntArray, body_b: IntArray, num_envs: int, num_ca
         ``(at_fault (E, N), collided (E, N), events, pause (E,))``: events are
         ``(env, car, bot, car_at_fault)`` in pymunk's report order.
     """
+    lengths = np.broadcast_to(np.asarray(length, dtype=np.float64), (num_envs,))
     at_fault = np.zeros((num_envs, num_cars), dtype=bool)
     collided = np.zeros((num_envs, num_cars), dtype=bool)
     pause = np.zeros(num_envs, dtype=bool)
@@ -151,7 +153,7 @@ def judge_bot_contacts(body_a: IntArray, body_b: IntArray, num_envs: int, num_ca
         if done[env, car]:
             continue
         collided[env, car] = True
-        gap = wrap_arc(bot_s[env, bot] - s[env, car], length)
+        gap = wrap_arc(bot_s[env, bot] - s[env, car], lengths[env])
         if gap >= 0.0:
             # A frozen car that a bot ahead touches (being pushed back onto it) is not judged.
             if racing[env, car]:
@@ -207,7 +209,8 @@ def _rank_kernel(distance, finished, finish_time, best_lap, by_best_lap, out):  
 
 def overtakes_and_defences(distance: FloatArray, prev_gap: FloatArray, eligible: BoolArray,
                            speed: FloatArray, pressure: FloatArray, faster: BoolArray,
-                           length: float, dt: float, gap_limit: float, time_limit: float,
+                           length: float | FloatArray, dt: float, gap_limit: float,
+                           time_limit: float,
                            ) -> tuple[FloatArray, BoolArray, BoolArray]:
     """Detect on-track passes and completed defences between every pair of cars.
 
@@ -229,7 +232,7 @@ def overtakes_and_defences(distance: FloatArray, prev_gap: FloatArray, eligible:
         speed: Forward speed after the step, (E, N) [m/s].
         pressure: Seconds of continuous pressure by i on j, (E, N, N); updated in place.
         faster: Whether i was faster than j during the current pressure; updated in place.
-        length: Lap length [m].
+        length: Lap length [m], one for every copy or each copy's, shape (E,).
         dt: Step length [s].
         gap_limit: Pressure distance [m].
         time_limit: Pressure duration that makes a defence [s].
@@ -242,7 +245,8 @@ def overtakes_and_defences(distance: FloatArray, prev_gap: FloatArray, eligible:
     pair_floats = np.stack([prev_gap, pressure]).astype(np.float64)
     pair_flags = np.zeros((len(PAIR_FLAGS), e, n, n), dtype=np.bool_)
     pair_flags[0] = faster
-    pairs_kernel(distance, eligible, speed, pair_floats, pair_flags, length, dt, gap_limit,
+    lengths = np.broadcast_to(np.asarray(length, dtype=np.float64), (e,)).copy()
+    pairs_kernel(distance, eligible, speed, pair_floats, pair_flags, lengths, dt, gap_limit,
                  time_limit)
     pressure[...] = pair_floats[1]
     faster[...] = pair_flags[0]
@@ -253,11 +257,12 @@ def overtakes_and_defences(distance: FloatArray, prev_gap: FloatArray, eligible:
 
 
 @njit(cache=True)
-def pairs_kernel(distance, eligible, speed, pair_floats, pair_flags, length, dt, gap_limit,
+def pairs_kernel(distance, eligible, speed, pair_floats, pair_flags, lengths, dt, gap_limit,
                  time_limit):  # pragma: no cover
     """The compiled kernel behind :func:`overtakes_and_defences` (the core's hot path).
 
-    The pair arrays come as two blocks (rows as in ``PAIR_FLOATS`` and ``PAIR_FLAGS``):
+    ``lengths`` (E,) is each copy's lap length [m]. The pair arrays come as two blocks (rows
+    as in ``PAIR_FLOATS`` and ``PAIR_FLAGS``):
     ``gap`` holds the gaps before the step and is overwritten with those after it (each
     entry is read before it is written), ``pressure`` and ``faster`` are updated in place,
     ``passed`` and ``defended`` are filled (every entry is written); returns
@@ -265,10 +270,10 @@ def pairs_kernel(distance, eligible, speed, pair_floats, pair_flags, length, dt,
     """
     gap, pressure = pair_floats[0], pair_floats[1]
     faster, passed, defended = pair_flags[0], pair_flags[1], pair_flags[2]
-    half = 0.5 * length
     any_passed = False
     any_defended = False
     for e in range(distance.shape[0]):
+        half = 0.5 * lengths[e]
         for i in range(distance.shape[1]):
             for j in range(distance.shape[1]):
                 before = gap[e, i, j]
@@ -292,13 +297,10 @@ def pairs_kernel(distance, eligible, speed, pair_floats, pair_flags, length, dt,
     return any_passed, any_defended
 
 
-def pack_rule_scalars(dt: float, rules: Any, projector: Any, tables: Any,
-                      min_half_width: float, wheel_reach: float) -> FloatArray:
-    """The ``scalars`` argument of ``advance_cars`` (constants of the rules, track and car)."""
+def pack_rule_scalars(dt: float, rules: Any, wheel_reach: float) -> FloatArray:
+    """The ``rule_scalars`` argument of ``advance_cars`` (constants of the rules and car)."""
     return np.array([dt, rules.reversed_steps, rules.immobilised_steps,
-                     rules.immobilised_distance, projector.inv_cell, projector.ny,
-                     projector.window, tables.inv_ds, tables.length, min_half_width,
-                     wheel_reach], dtype=np.float64)
+                     rules.immobilised_distance, wheel_reach], dtype=np.float64)
 
 
 CAR_VECTORS: tuple[str, ...] = ("position", "velocity")
@@ -321,21 +323,21 @@ PAIR_FLAGS: tuple[str, ...] = ("_faster", "_passed", "_defended")
 
 @njit(cache=True)
 def advance_cars(body_state, env_offset, wheels, racing, time, steps, time_limit, max_cycles,
-                 car_vectors, car_floats, car_counts, car_flags, scalars, points, selected,
-                 wheel_first, scratch, proj_grid, proj_start, proj_cert, proj_tab, proj_tab_full,
-                 widths, step_distance, flags, new_laps):  # pragma: no cover
+                 car_vectors, car_floats, car_counts, car_flags, rule_scalars, points,
+                 point_track, selected, wheel_first, scratch, track_index, track_scalars,
+                 fields, proj_start, proj_cert, proj_tab, proj_tab_full, step_distance, flags,
+                 new_laps):  # pragma: no cover
     """Read the physics state back and apply the per-car rules, for every car at once.
 
     The car fields come as ``RaceCore``'s blocks, rows as in ``CAR_VECTORS``, ``CAR_FLOATS``,
     ``CAR_COUNTS`` and ``CAR_FLAGS``, and the constants come packed (a compiled call costs
-    about 80 ns per array argument):
-    ``scalars`` = (dt, reversed_steps, immobilised_steps, immobile_distance, projector
-    inv_cell, projector ny, projector window, lookup inv_ds, lap length, the track's smallest
-    half-width, wheel_reach) (see ``pack_rule_scalars``); ``proj_grid`` = the projector's
-    (origin x, origin y, hi x, hi y); ``widths`` = (width_left, width_right) lookup tables;
-    ``scratch`` (3, P) rows: each car's displacement this step, then the projections' s and d
-    of the queued points; ``flags`` (3, E, N) is filled with off_track, reversed and
-    immobilised.
+    about 80 ns per array argument): ``rule_scalars`` = (dt, reversed_steps,
+    immobilised_steps, immobile_distance, wheel_reach) (see ``pack_rule_scalars``); the
+    tracks as the arrays of a ``TrackTables`` (``track_scalars``, ``fields``, ``proj_*``), and
+    env copy e races track ``track_index[e]``; ``scratch`` (3, P) rows: each car's
+    displacement this step, then the projections' s and d of the queued points
+    (``point_track`` (P,): the track of each); ``flags`` (3, E, N) is filled with off_track,
+    reversed and immobilised.
 
     For each car (E, N), given pymunk's state ``body_state`` (E * N + ..., 6) =
     (x, y, angle, vx, vy, angular velocity) in the shared Space:
@@ -366,22 +368,16 @@ def advance_cars(body_state, env_offset, wheels, racing, time, steps, time_limit
     s, d, distance, lap_origin = car_floats[4], car_floats[5], car_floats[6], car_floats[8]
     laps, reverse_count, immobile_count = car_counts[0], car_counts[1], car_counts[2]
     done = car_flags[0]
-    dt = scalars[0]
-    reversed_steps = scalars[1]
-    immobilised_steps = scalars[2]
-    immobile_distance = scalars[3]
-    proj_inv_cell = scalars[4]
-    proj_ny = int(scalars[5])
-    proj_window = int(scalars[6])
-    inv_ds = scalars[7]
-    length = scalars[8]
-    min_half_width = scalars[9]
-    wheel_reach = scalars[10]
+    dt = rule_scalars[0]
+    reversed_steps = rule_scalars[1]
+    immobilised_steps = rule_scalars[2]
+    immobile_distance = rule_scalars[3]
+    wheel_reach = rule_scalars[4]
     moved = scratch[0]
     s_points = scratch[1]
     d_points = scratch[2]
-    width_left = widths[0]
-    width_right = widths[1]
+    width_left = fields[tt.WIDTH_LEFT]
+    width_right = fields[tt.WIDTH_RIGHT]
     off_track = flags[0]
     reversed_ = flags[1]
     immobilised = flags[2]
@@ -396,6 +392,8 @@ def advance_cars(body_state, env_offset, wheels, racing, time, steps, time_limit
     # the line: on the surface when that is below the track's narrowest half-width.
     queued = total
     for e in range(num_envs):
+        t = track_index[e]
+        min_half_width = track_scalars[t, tt.MIN_HALF_WIDTH]
         active = False
         for i in range(num_cars):
             active = active or not done[e, i]
@@ -422,6 +420,7 @@ def advance_cars(body_state, env_offset, wheels, racing, time, steps, time_limit
             speed[e, i] = c * body_state[k, 3] + sn * body_state[k, 4]
             points[k, 0] = x
             points[k, 1] = y
+            point_track[k] = t
             selected[k] = racing[e, i]
             wheel_first[k] = -1
             if racing[e, i] and abs(d[e, i]) + moved[k] + wheel_reach > min_half_width:
@@ -429,13 +428,25 @@ def advance_cars(body_state, env_offset, wheels, racing, time, steps, time_limit
                 for w in range(num_wheels):
                     points[queued, 0] = x + c * wheels[w, 0] - sn * wheels[w, 1]
                     points[queued, 1] = y + sn * wheels[w, 0] + c * wheels[w, 1]
+                    point_track[queued] = t
                     selected[queued] = True
                     queued += 1
-    project_kernel(points[:queued], selected[:queued], proj_grid[0:2], proj_inv_cell,
-                   proj_grid[2:4], proj_ny, proj_start, proj_cert, proj_tab, proj_window,
-                   proj_tab_full, length, s_points, d_points)
+    for q in range(queued):
+        if selected[q]:
+            s_points[q], d_points[q] = project_on(track_scalars, point_track[q], proj_start,
+                                                  proj_cert, proj_tab, proj_tab_full,
+                                                  points[q, 0], points[q, 1])
+        else:
+            s_points[q] = 0.0
+            d_points[q] = 0.0
     # Pass 2: the rules, from the projections.
     for e in range(num_envs):
+        t = track_index[e]
+        length = track_scalars[t, tt.LENGTH]
+        inv_ds = track_scalars[t, tt.INV_DS]
+        first = int(track_scalars[t, tt.LUT_FIRST])
+        count = int(track_scalars[t, tt.LUT_COUNT])
+        min_half_width = track_scalars[t, tt.MIN_HALF_WIDTH]
         for i in range(num_cars):
             k = e * num_cars + i
             if not racing[e, i]:
@@ -453,16 +464,17 @@ def advance_cars(body_state, env_offset, wheels, racing, time, steps, time_limit
             s[e, i] = s_points[k]
             d[e, i] = d_points[k]
             any_on = True
-            first = wheel_first[k]
-            if first >= 0:
+            first_wheel = wheel_first[k]
+            if first_wheel >= 0:
                 any_on = abs(d_points[k]) + wheel_reach <= min_half_width
-                for w in range(first, first + num_wheels):
+                for w in range(first_wheel, first_wheel + num_wheels):
                     if any_on:
                         break
                     sw = s_points[w]
                     dw = d_points[w]
-                    any_on = (dw <= lookup(width_left, sw, inv_ds, length)
-                              and dw >= -lookup(width_right, sw, inv_ds, length))
+                    any_on = (dw <= lookup_span(width_left, first, count, sw, inv_ds, length)
+                              and dw >= -lookup_span(width_right, first, count, sw, inv_ds,
+                                                     length))
             off_track[e, i] = not any_on
             reverse_count[e, i] = reverse_count[e, i] + 1 if ds < 0.0 else 0
             immobile_count[e, i] = immobile_count[e, i] + 1 if moved[k] <= immobile_distance else 0

@@ -82,15 +82,23 @@ class TrackLookup:
 
 
 @njit(cache=True, inline="always")
-def lookup(table: FloatArray, s: float, inv_ds: float, length: float) -> float:  # pragma: no cover
-    """Linearly interpolate a periodic ``table`` at arc position ``s`` (any real number)."""
+def lookup_span(table: FloatArray, first: int, count: int, s: float, inv_ds: float,
+                length: float) -> float:  # pragma: no cover
+    """Linearly interpolate the periodic table ``table[first:first + count]`` at arc position
+    ``s`` (any real number): one track's samples among several tracks' (``TrackTables``)."""
     s = s - length * math.floor(s / length)
     u = s * inv_ds
     k = int(u)
-    if k >= table.shape[0] - 1:
-        k = table.shape[0] - 2
+    if k >= count - 1:
+        k = count - 2
     f = u - k
-    return table[k] + f * (table[k + 1] - table[k])
+    return table[first + k] + f * (table[first + k + 1] - table[first + k])
+
+
+@njit(cache=True, inline="always")
+def lookup(table: FloatArray, s: float, inv_ds: float, length: float) -> float:  # pragma: no cover
+    """Linearly interpolate a periodic ``table`` at arc position ``s`` (any real number)."""
+    return lookup_span(table, 0, table.shape[0], s, inv_ds, length)
 
 
 @njit(cache=True, inline="always")

@@ -3,8 +3,9 @@
 A :class:`Projector` covers the track's bounds with a grid; each cell stores a window of
 candidate centre-line segments and a certificate (a distance below which the window's nearest
 segment is provably the true nearest). :func:`project_kernel` answers queries from the window and
-falls back to every segment for the rare uncertified points, so the answer is always exact. The
-simulation core calls the kernel directly from its compiled step.
+falls back to every segment for the rare uncertified points, so the answer is always exact.
+Both do it point by point with :func:`project_point`, which the simulation core's compiled step
+calls too, on the tables of each copy's track (:mod:`h2h_racing.track_tables`).
 """
 
 from __future__ import annotations
@@ -139,47 +140,63 @@ def _segment_distance2(z, tab, r):  # pragma: no cover
     return e.real * e.real + e.imag * e.imag, t, e
 
 
+@njit(cache=True, inline="always")
+def project_point(x, y, origin_x, origin_y, inv_cell, hi_x, hi_y, ny, start, cell_first, cert,
+                  tab, tab_first, window, tab_full, full_first, full_count,
+                  length):  # pragma: no cover
+    """Exact nearest point of one track's centre polyline to ``(x, y)``: ``(s, d)``.
+
+    The track's grid cells are ``start[cell_first:]`` and ``cert[cell_first:]``, its windowed
+    segment rows ``tab[tab_first:]`` (``start`` counts from there) and its full segment table
+    ``tab_full[full_first:full_first + full_count]``: one track's tables among several tracks'
+    (``h2h_racing.track_tables``), or a whole ``Projector`` with every offset 0. The cell of
+    the point gives a window of ``window`` candidate segments; when the best distance in the
+    window exceeds the cell's certificate, the window might miss the nearest segment and every
+    segment is searched.
+    """
+    z = complex(x, y)
+    ix = int(min(max((x - origin_x) * inv_cell, 0.0), hi_x))
+    iy = int(min(max((y - origin_y) * inv_cell, 0.0), hi_y))
+    cell = cell_first + ix * ny + iy
+    first = tab_first + start[cell]
+    best = np.inf
+    best_row = first
+    best_t = 0.0
+    best_e = 0j
+    for r in range(first, first + window):
+        dist2, t, e = _segment_distance2(z, tab, r)
+        if dist2 < best:
+            best, best_row, best_t, best_e = dist2, r, t, e
+    table = tab
+    limit = cert[cell]
+    if limit < 0.0 or best > limit * limit:
+        best = np.inf
+        table = tab_full
+        for r in range(full_first, full_first + full_count):
+            dist2, t, e = _segment_distance2(z, tab_full, r)
+            if dist2 < best:
+                best, best_row, best_t, best_e = dist2, r, t, e
+    s = table[best_row, 4].real + best_t * table[best_row, 4].imag
+    # s0 + t * len reaches ``length`` only at the very end of the closing segment.
+    return (0.0 if s >= length else s,
+            math.copysign(math.sqrt(best), (best_e * table[best_row, 3]).imag))
+
+
 @njit(cache=True)
 def project_kernel(q, mask, origin, inv_cell, hi, ny, start, cert, tab, window, tab_full, length,
                    out_s, out_d):  # pragma: no cover
-    """Exact nearest point of the centre polyline for each point of ``q`` (P, 2).
+    """Exact nearest point of the centre polyline for each point of ``q`` (P, 2)
+    (``project_point`` with one ``Projector``'s tables).
 
-    The grid cell of a point gives a window of ``window`` candidate segments (rows
-    ``start[cell] ..`` of ``tab``); when the best distance in the window exceeds the cell's
-    certificate, the window might miss the nearest segment and every segment is searched.
     Points where ``mask`` is False are skipped (s = d = 0); an empty mask selects all.
     """
     everything = mask.shape[0] == 0
+    full_count = tab_full.shape[0]
     for i in range(q.shape[0]):
         if not everything and not mask[i]:
             out_s[i] = 0.0
             out_d[i] = 0.0
             continue
-        x = q[i, 0]
-        y = q[i, 1]
-        z = complex(x, y)
-        ix = int(min(max((x - origin[0]) * inv_cell, 0.0), hi[0]))
-        iy = int(min(max((y - origin[1]) * inv_cell, 0.0), hi[1]))
-        cell = ix * ny + iy
-        first = start[cell]
-        best = np.inf
-        best_row = first
-        best_t = 0.0
-        best_e = 0j
-        for r in range(first, first + window):
-            dist2, t, e = _segment_distance2(z, tab, r)
-            if dist2 < best:
-                best, best_row, best_t, best_e = dist2, r, t, e
-        table = tab
-        limit = cert[cell]
-        if limit < 0.0 or best > limit * limit:
-            best = np.inf
-            table = tab_full
-            for r in range(tab_full.shape[0]):
-                dist2, t, e = _segment_distance2(z, tab_full, r)
-                if dist2 < best:
-                    best, best_row, best_t, best_e = dist2, r, t, e
-        s = table[best_row, 4].real + best_t * table[best_row, 4].imag
-        # s0 + t * len reaches ``length`` only at the very end of the closing segment.
-        out_s[i] = 0.0 if s >= length else s
-        out_d[i] = math.copysign(math.sqrt(best), (best_e * table[best_row, 3]).imag)
+        out_s[i], out_d[i] = project_point(q[i, 0], q[i, 1], origin[0], origin[1], inv_cell,
+                                           hi[0], hi[1], ny, start, 0, cert, tab, 0, window,
+                                           tab_full, 0, full_count, length)

@@ -41,6 +41,7 @@ left, 1 = right with ``stereo``) of the ``t``-th frame, oldest first, newest las
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -58,12 +59,12 @@ from h2h_racing.sensors.camera_kernels import (
     box_faces_kernel,
     ground_maps_kernel,
 )
+from h2h_racing.track import Track
 from h2h_racing.track_lookup import MAX_SAMPLES
 
 if TYPE_CHECKING:
     from h2h_racing.config import CarParams
     from h2h_racing.core import RaceCore
-    from h2h_racing.track import Track
 
 UInt8Array = npt.NDArray[np.uint8]
 FloatArray = npt.NDArray[np.float64]
@@ -188,18 +189,28 @@ class CameraSensor:
 
     Args:
         config: Camera configuration.
-        track: The track (its ground texture is drawn once here).
+        track: The track (its ground texture is drawn once here), or the tracks of a core of
+            several, in its order (``core.tracks``): copy e sees track
+            ``core.track_index[e]``'s texture.
         car: Car parameters (the box size of the cars).
         obstacle_size: (length, width) of the obstacle boxes [m].
     """
 
-    def __init__(self, config: CameraConfig, track: Track, car: CarParams,
+    def __init__(self, config: CameraConfig, track: Track | Sequence[Track], car: CarParams,
                  obstacle_size: tuple[float, float] = (0.5, 0.4)) -> None:
         if not isinstance(config, CameraConfig):
             raise TypeError(f"config must be a CameraConfig, got {type(config).__name__}")
         self.config = config
-        self.track = track
-        self.texture = GroundTexture(track, config.texture_resolution_m, config.max_texture_px)
+        self.tracks: tuple[Track, ...] = (track,) if isinstance(track, Track) else tuple(track)
+        """The tracks whose textures the copies see."""
+        drawn: dict[int, GroundTexture] = {}
+        for t in self.tracks:
+            if id(t) not in drawn:
+                drawn[id(t)] = GroundTexture(t, config.texture_resolution_m,
+                                             config.max_texture_px)
+        self.textures = [drawn[id(t)] for t in self.tracks]
+        """The ground texture of each track."""
+        self._world_to_texture = np.stack([t.world_to_texture for t in self.textures])
         self.car_size = np.array([car.length, car.width, config.car_height_m])
         self.obstacle_size = np.array([float(obstacle_size[0]), float(obstacle_size[1]),
                                        config.obstacle_height_m])
@@ -228,6 +239,22 @@ class CameraSensor:
         self._buffers: dict[str, np.ndarray] = {}
         self._tables: dict[str, tuple[np.ndarray, ...]] = {}
 
+    @property
+    def track(self) -> Track:
+        """The one track (a camera of several tracks has ``tracks``)."""
+        return self._only(self.tracks)
+
+    @property
+    def texture(self) -> GroundTexture:
+        """The one track's ground texture (a camera of several tracks has ``textures``)."""
+        return self._only(self.textures)
+
+    def _only(self, values: Sequence[object]) -> object:
+        if len(values) != 1:
+            raise AttributeError(f"this camera sees {len(values)} tracks: use tracks and "
+                                 f"textures, one per track")
+        return values[0]
+
     # ------------------------------------------------------------------ spaces
     def space(self) -> spaces.Box:
         """Observation space of one car: ``Box(0, 255, (H, W, C), uint8)``."""
@@ -246,16 +273,21 @@ class CameraSensor:
         cam_xy, _ = self.ground_maps(position, yaw)
         return cam_xy
 
-    def ground_maps(self, position: FloatArray, yaw: FloatArray) -> tuple[FloatArray, FloatArray]:
+    def ground_maps(self, position: FloatArray, yaw: FloatArray,
+                    track_index: npt.NDArray[np.int64] | None = None,
+                    ) -> tuple[FloatArray, FloatArray]:
         """Optical centres (E, N, C, 2) [m] and image-band -> texture homographies
-        (E, N, C, 3, 3) for ``cv2.WARP_INVERSE_MAP``; see :func:`ground_maps_kernel`."""
+        (E, N, C, 3, 3) for ``cv2.WARP_INVERSE_MAP`` into each copy's track's texture
+        (``track_index`` (E,); None: track 0); see :func:`ground_maps_kernel`."""
         e_n, n_n = yaw.shape
         c_n = self.config.cameras
         cam_xy = np.empty((e_n, n_n, c_n, 2))
         maps = np.empty((e_n, n_n, c_n, 3, 3))
+        if track_index is None:
+            track_index = np.zeros(e_n, dtype=np.int64)
         ground_maps_kernel(position, yaw, self.config.forward_m, self._lateral,
                            self.config.height_m, self._sin_p, self._cos_p, self._k_inv_t,
-                           self.texture.world_to_texture, cam_xy, maps)
+                           self._world_to_texture, track_index, cam_xy, maps)
         return cam_xy, maps
 
     def _buffer(self, name: str, shape: tuple[int, ...], dtype: type) -> np.ndarray:
@@ -285,7 +317,11 @@ class CameraSensor:
         elif frames.shape != shape or frames.dtype != np.uint8 or not frames.flags.c_contiguous:
             raise ValueError(f"frames must be a C-contiguous uint8 array of shape {shape}, got "
                              f"{frames.dtype}{frames.shape}; pass None to allocate one")
-        cam_xy, maps = self.ground_maps(core.position, core.yaw)
+        if core.num_tracks != len(self.textures):
+            raise ValueError(f"this camera holds the textures of {len(self.textures)} tracks, "
+                             f"but the core races {core.num_tracks}; build it with the core's "
+                             f"tracks (CameraSensor(config, core.tracks, ...))")
+        cam_xy, maps = self.ground_maps(core.position, core.yaw, core.track_index)
         boxes, yaws, sizes, shades = self._other_boxes(core)
         num_faces = (n_n - 1 + boxes.shape[1]) * FACES_PER_BOX
         count = self._buffer("count", (e_n, n_n, c_n), np.int64)
@@ -304,10 +340,13 @@ class CameraSensor:
         flat[:, :r0] = SKY
         if r0 < h:
             maps = maps.reshape(-1, 3, 3)
-            tex, size, flags = self.texture.image, (w, h - r0), self._flags
+            size, flags = (w, h - r0), self._flags
             warp = cv2.warpPerspective
+            images = [t.image for t in self.textures]
+            # Each frame warps its copy's track's texture.
+            of_frame = np.repeat(core.track_index, n_n * c_n).tolist()
             for f in range(flat.shape[0]):
-                warp(tex, maps[f], size, dst=flat[f, r0:], flags=flags,
+                warp(images[of_frame[f]], maps[f], size, dst=flat[f, r0:], flags=flags,
                      borderMode=cv2.BORDER_CONSTANT, borderValue=FLOOR)
         counts = count.reshape(-1)
         if counts.any():
@@ -423,7 +462,7 @@ def save_camera_png(core: RaceCore, car: int, path: str | Path, env: int = 0,
         raise ValueError(f"env must be in [0, {core.num_envs - 1}], got {env}")
     if not isinstance(scale, int) or scale < 1:
         raise ValueError(f"scale must be an int >= 1, got {scale!r}")
-    sensor = CameraSensor(config or CameraConfig(), core.track, core.config.car,
+    sensor = CameraSensor(config or CameraConfig(), core.tracks, core.config.car,
                           (core.config.obstacle_length, core.config.obstacle_width))
     frame = sensor.render(core, env, car)
     image = np.concatenate([frame[:, :, c] for c in range(frame.shape[2])], axis=1)

@@ -204,7 +204,7 @@ def box_faces_kernel(cam_xy, cam_yaw, car_pos, car_yaw, done, obs_pos, obs_yaw,
 
 @njit(cache=True)
 def ground_maps_kernel(position, yaw, forward, lateral, cam_h, sin_p, cos_p, k_inv_t,
-                       world_to_texture, cam_xy, maps):  # pragma: no cover
+                       world_to_texture, track_index, cam_xy, maps):  # pragma: no cover
     """Optical centre and image -> texture homography of every camera.
 
     The ray through pixel ``(u, v)`` has the world direction ``d = R^T K^-1 [u, v, 1]``
@@ -221,7 +221,8 @@ def ground_maps_kernel(position, yaw, forward, lateral, cam_h, sin_p, cos_p, k_i
         forward: Optical centre ahead of the car's origin [m].
         lateral: Left offset of each camera, (C,) [m].
         cam_h, sin_p, cos_p: Height [m] and pitch of the cameras.
-        k_inv_t: ``K^-1 T``, (3, 3). world_to_texture: ``A^-1``, (3, 3).
+        k_inv_t: ``K^-1 T``, (3, 3). world_to_texture: ``A^-1`` of each track's texture,
+            (K, 3, 3); track_index: the track of each copy, (E,).
         cam_xy: Out, optical centres (E, N, C, 2) [m].
         maps: Out, homographies (E, N, C, 3, 3).
     """
@@ -230,6 +231,7 @@ def ground_maps_kernel(position, yaw, forward, lateral, cam_h, sin_p, cos_p, k_i
     ray = np.empty((3, 3))
     g_ray = np.empty((3, 3))
     for e in range(num_envs):
+        w2t = world_to_texture[track_index[e]]
         for i in range(num_cars):
             cf, sf = math.cos(yaw[e, i]), math.sin(yaw[e, i])
             # R^T: columns x_c = r, y_c = -sin f - cos u, z_c = cos f - sin u (world frame).
@@ -252,6 +254,6 @@ def ground_maps_kernel(position, yaw, forward, lateral, cam_h, sin_p, cos_p, k_i
                     g_ray[2, col] = -ray[2, col]
                 for r in range(3):
                     for col in range(3):
-                        maps[e, i, c, r, col] = (world_to_texture[r, 0] * g_ray[0, col]
-                                                 + world_to_texture[r, 1] * g_ray[1, col]
-                                                 + world_to_texture[r, 2] * g_ray[2, col])
+                        maps[e, i, c, r, col] = (w2t[r, 0] * g_ray[0, col]
+                                                 + w2t[r, 1] * g_ray[1, col]
+                                                 + w2t[r, 2] * g_ray[2, col])

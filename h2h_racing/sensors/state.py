@@ -41,7 +41,8 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-from h2h_racing.track_lookup import lookup, wrap_angle, wrap_arc
+from h2h_racing import track_tables as tt
+from h2h_racing.track_lookup import lookup_span, wrap_angle, wrap_arc
 
 if TYPE_CHECKING:
     from h2h_racing.core import RaceCore
@@ -73,13 +74,13 @@ def state_size(opponent_slots: int, obstacle_slots: int) -> int:
 def state_observation(core: RaceCore) -> npt.NDArray[np.float32]:
     """Return the state observation of every car, shape (E, N, F), float32."""
     cfg = core.config
-    lut = core.lookup
+    tables = core.tables
     out = np.empty((core.num_envs, core.num_cars,
                     state_size(cfg.opponent_slots, cfg.obstacle_slots)), dtype=np.float32)
     _state_kernel(core._car_vectors, core._car_floats, core._car_counts, core._racing,
                   core._car_flags, core.obstacle_s,
-                  core.obstacle_d, core.bot_s, core.bot_d, core.bot_speed, core._track_tables,
-                  lut.inv_ds, lut.length,
+                  core.obstacle_d, core.bot_s, core.bot_d, core.bot_speed, core.track_index,
+                  tables.scalars, tables.fields,
                   cfg.car.max_speed, cfg.car.max_steer,
                   cfg.opponent_slots, cfg.obstacle_slots, LOOKAHEAD, out)
     return out
@@ -105,13 +106,13 @@ def _take_nearest(distance):  # pragma: no cover
 
 @njit(cache=True)
 def _state_kernel(car_vectors, car_floats, car_counts, racing, car_flags, obstacle_s,
-                  obstacle_d, bot_s, bot_d, bot_speed, track_tables, inv_ds, length, max_speed,
-                  max_steer, m_slots, k_slots, lookahead, out):  # pragma: no cover
+                  obstacle_d, bot_s, bot_d, bot_speed, track_index, track_scalars, fields,
+                  max_speed, max_steer, m_slots, k_slots, lookahead, out):  # pragma: no cover
     """Compiled loop over env copies and cars filling ``out`` (E, N, F); the car fields come
-    as the core's blocks (rows as in ``race.CAR_*``), the track's lookup tables as one block
-    (heading, curvature, width_left, width_right)."""
-    heading, curvature = track_tables[0], track_tables[1]
-    width_left, width_right = track_tables[2], track_tables[3]
+    as the core's blocks (rows as in ``race.CAR_*``), the tracks' lookup tables as a
+    ``TrackTables``' ``scalars`` and ``fields``, copy e on track ``track_index[e]``."""
+    heading, curvature = fields[tt.HEADING], fields[tt.CURVATURE]
+    width_left, width_right = fields[tt.WIDTH_LEFT], fields[tt.WIDTH_RIGHT]
     velocity = car_vectors[1]
     yaw, yaw_rate, steer, speed = car_floats[0], car_floats[1], car_floats[2], car_floats[3]
     s, d = car_floats[4], car_floats[5]
@@ -125,14 +126,20 @@ def _state_kernel(car_vectors, car_floats, car_counts, racing, car_flags, obstac
     ahead = np.empty(max(num_obstacles, 1))
     ahead_distance = np.empty(max(num_obstacles, 1))
     for e in range(num_envs):
+        t = track_index[e]
+        length = track_scalars[t, tt.LENGTH]
+        inv_ds = track_scalars[t, tt.INV_DS]
+        first = int(track_scalars[t, tt.LUT_FIRST])
+        count = int(track_scalars[t, tt.LUT_COUNT])
         for i in range(num_cars):
             si = s[e, i]
             di = d[e, i]
             c = math.cos(yaw[e, i])
             sn = math.sin(yaw[e, i])
-            left = lookup(width_left, si, inv_ds, length)
-            right = lookup(width_right, si, inv_ds, length)
-            error = wrap_angle(yaw[e, i] - lookup(heading, si, inv_ds, length))
+            left = lookup_span(width_left, first, count, si, inv_ds, length)
+            right = lookup_span(width_right, first, count, si, inv_ds, length)
+            error = wrap_angle(yaw[e, i] - lookup_span(heading, first, count, si, inv_ds,
+                                                       length))
             row = out[e, i]
             row[0] = _clip(speed[e, i] * inv_v)
             row[1] = _clip((c * velocity[e, i, 1] - sn * velocity[e, i, 0]) * inv_v)
@@ -142,7 +149,8 @@ def _state_kernel(car_vectors, car_floats, car_counts, racing, car_flags, obstac
             row[5] = math.sin(error)
             row[6] = math.cos(error)
             for k in range(lookahead.shape[0]):
-                row[7 + k] = _clip(0.5 * lookup(curvature, si + lookahead[k], inv_ds, length))
+                row[7 + k] = _clip(0.5 * lookup_span(curvature, first, count, si + lookahead[k],
+                                                     inv_ds, length))
             row[15] = _clip(2.0 * left)
             row[16] = _clip(2.0 * right)
             row[17] = (rank[e, i] - 1) / (num_cars - 1) if num_cars > 1 else 0.0

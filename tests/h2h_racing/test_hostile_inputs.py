@@ -141,12 +141,12 @@ def test_car_with_no_clear_spot_stays_frozen_until_one_clears() -> None:
         assert core.time[0] > time  # the clock runs
         assert core.frozen[0, 0] and not core.racing[0, 0] and core.waiting[0, 0]
         # It waits parked off the track, where it blocks nobody; its last pose is kept.
-        np.testing.assert_allclose(core.position[0, 0], core._park[0], atol=1e-9)
+        np.testing.assert_allclose(core.position[0, 0], core._park[0, 0], atol=1e-9)
         np.testing.assert_allclose(core.final_position[0, 0], where, atol=1e-9)
         assert core.resets[0, 0] == 0
     # The boxes on the first spot and on the next one behind it (0.02 m from it) go: car 0 is
     # put on the first spot on the next step.
-    core.obstacle_position[0, [0, 2]] = core._park[1] + 5.0
+    core.obstacle_position[0, [0, 2]] = core._park[0, 1] + 5.0
     core._sync_physics()
     ev = step(core)
     assert ev.replaced[0, 0] and core.resets[0, 0] == 1
