@@ -15,12 +15,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-import numpy as np
 
 from h2h_racing.config import EnvConfig, RaceRules, RewardConfig
 from h2h_racing.config_sensors import HFOV_RANGE_DEG, MAX_FRAME_STACK
 from h2h_racing.deepracer.reward import check_time_limit
 from h2h_racing.policies.registry import parse_driver_spec
+from h2h_racing.track_io import load_track
 from h2h_racing.training.camera_network import check_camera, cnn_config
 from h2h_racing.training.config_file import read_train_toml
 from h2h_racing.training.device import check_device_name
@@ -32,7 +32,6 @@ from h2h_racing.training.teachers import load_teacher
 from h2h_racing.training.toml_types import build_tables
 from h2h_racing.training.tracks import ProceduralTracks
 from h2h_racing.training.vec_env import ACTOR_GROUPS, OBSERVATIONS, PoolOpponent, RacingVecEnv
-from h2h_racing.training.vec_env_tracks import TrackGroups
 
 STD_FLOOR = 1e-6
 """Smallest policy standard deviation (rsl-rl's own floor) when ``TrainConfig.max_std`` is set."""
@@ -307,7 +306,7 @@ class TrainConfig:
                              f"{self.track!r}), or leave tracks at 1")
         if self.num_envs % self.procedural.tracks:
             raise ValueError(f"TrainConfig.num_envs ({self.num_envs}) must split evenly into "
-                             f"[procedural] tracks ({self.procedural.tracks}) groups of copies; "
+                             f"[procedural] tracks ({self.procedural.tracks}) blocks of copies; "
                              f"make num_envs a multiple of tracks")
         if self.max_std is not None and not (isinstance(self.max_std, (int, float))
                                              and self.max_std > STD_FLOOR):
@@ -513,31 +512,24 @@ class TrainConfig:
         }
 
     def make_env(self, device: str = "cpu",
-                 simtrace: str | Path | None = None) -> RacingVecEnv | TrackGroups:
+                 simtrace: str | Path | None = None) -> RacingVecEnv:
         """Build the VecEnv for this config (logging ``simtrace_envs`` copies to ``simtrace``
-        when both are given): a ``RacingVecEnv``, or with ``[procedural] tracks`` > 1 a
-        ``TrackGroups`` of that many, each with its share of the copies and a seed of its own
-        (spawned from ``seed``)."""
+        when both are given): with ``[procedural] tracks`` K > 1 its copies race K tracks at
+        once in one core, K blocks of copies each with a generator and drivers of its own
+        (seeds spawned from ``seed``, ``RaceCore.track_seeds``); ``train`` gives them their
+        random tracks (``set_tracks``)."""
         log = None if simtrace is None or not self.simtrace_envs else str(simtrace)
-        groups = self.procedural.tracks
-        size = self.num_envs // groups
-        seeds = ([self.seed] if groups == 1 else
-                 [int(s.generate_state(1)[0]) for s in np.random.SeedSequence(self.seed).spawn(
-                     groups)])
-        env_config, envs = self.env_config(), []
-        for k, seed in enumerate(seeds):
-            opponent: Any = self.opponent
-            if opponent is not None and "," in opponent:
-                names = self.opponents()
-                opponent = PoolOpponent(tuple(names[e % len(names)]
-                                              for e in range(k * size, (k + 1) * size)),
-                                        seed=seed)
-            envs.append(RacingVecEnv(
-                env_config, num_envs=size, learners=self.learners, opponent=opponent,
-                observations=self.observations, seed=seed, device=device,
-                reward_function=self.reward_function, simtrace=log,
-                reward_time_limit=self.reward_time_limit,
-                simtrace_envs=max(self.simtrace_envs, 1),
-                simtrace_episodes=self.simtrace_episodes, expert=self.imitation.expert(),
-                race_types=self.race.race_types))
-        return envs[0] if groups == 1 else TrackGroups(envs)
+        env_config = self.env_config()
+        opponent: Any = self.opponent
+        if opponent is not None and "," in opponent:
+            names = self.opponents()
+            opponent = PoolOpponent(tuple(names[e % len(names)] for e in range(self.num_envs)),
+                                    seed=self.seed)
+        track = load_track(env_config.track)
+        return RacingVecEnv(
+            env_config, num_envs=self.num_envs, learners=self.learners, opponent=opponent,
+            observations=self.observations, seed=self.seed, device=device,
+            track=[track] * self.procedural.tracks, reward_function=self.reward_function,
+            simtrace=log, reward_time_limit=self.reward_time_limit,
+            simtrace_envs=max(self.simtrace_envs, 1), simtrace_episodes=self.simtrace_episodes,
+            expert=self.imitation.expert(), race_types=self.race.race_types)

@@ -124,8 +124,9 @@ class ProceduralTracks:
     every: int = 10
     """Iterations between track changes."""
     tracks: int = 1
-    """Random tracks raced at once: the copies are split into this many groups, each on a
-    track of its own (``TrackGroups``), so that every rollout and mini-batch mixes them; with
+    """Random tracks raced at once: the copies are split into this many blocks, each on a
+    track of its own (one core of several tracks), so that every rollout and mini-batch mixes
+    them; with
     one, every iteration's gradient steps pull the policy towards one track. 4 (with
     ``[imitation] pace = 0.95``) took ``camera_generalist``'s last step to 10 of 10 tracks on
     all three seeds, against 7-9 with the pace alone and 7-8 with 4 tracks alone

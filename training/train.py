@@ -44,7 +44,6 @@ from h2h_racing.training.run_folder import RunFolderError, check_out, checkpoint
 from h2h_racing.training.teachers import load_teacher  # noqa: E402
 from h2h_racing.training.train_progress import (  # noqa: E402
     Budget, IterationHook, StopTraining, TrainDisplay, quiet)
-from h2h_racing.training.vec_env_tracks import TrackGroups  # noqa: E402
 from h2h_racing.progress import Mode  # noqa: E402
 
 
@@ -238,10 +237,7 @@ def _set_tracks(config: TrainConfig, env: Any, tracks: np.random.Generator) -> N
 
 
 def _apply_tracks(env: Any, drawn: list[Any]) -> None:
-    if isinstance(env, TrackGroups):
-        env.set_tracks(drawn)
-    else:
-        env.set_track(drawn[0])
+    env.set_tracks(drawn)
 
 
 def make_runner(config: TrainConfig, env: Any, log_dir: str | None = None) -> Any:

@@ -6,6 +6,16 @@ The other cars of a copy are opponents, driven inside :meth:`RacingVecEnv.step` 
 driver or a frozen policy, in one batched call over every copy. Every car's grid slot is drawn
 at each reset (seat fairness).
 
+Several tracks in one batch (``[procedural] tracks``): given K tracks, the copies split into K
+blocks in track order, each racing its track, in the same core (``RaceCore``'s several tracks:
+one step for every copy); every rollout, and every mini-batch drawn from it, mixes the K
+tracks. Each track has its own random generator and its own opponent and expert drivers
+(``vec_env_drivers``), so the rows of a track's copies are those a VecEnv of that track alone
+would give, seeded with the track's seed (``RaceCore.track_seeds``). With a single track, one
+track of a procedural run's rollout pulls every gradient step of the iteration towards it:
+camera students' laps on the held-out tracks swung from checkpoint to checkpoint (issue 21,
+``experiments/camera``).
+
 A copy's episode ends as soon as one of its learner cars is done (finished its laps, retired by
 an infraction under ``training`` rules, or out of time), and the copy is reset inside ``step``:
 that learner's row reports ``done`` (a termination, or a time-out for a time limit), the other
@@ -14,46 +24,9 @@ bootstraps their value), and the observations returned are the first of the next
 rsl-rl has no row mask (every row goes into the loss), so a copy never keeps running with a
 finished learner in it.
 
-Observation groups (a ``TensorDict`` with batch size ``num_envs * learners``):
-
-- ``policy``: the state vector of the learner car, (B, F) float32;
-- ``critic``: privileged state for an asymmetric critic, (B, F + 4 (N - 1)): the state vector and,
-  for every other car in car order, its arc gap (wrapped, / 5 m), lateral offset, forward speed
-  (/ 4 m/s) and heading error, whatever its distance;
-- ``camera`` (with every ``observations`` but ``"state"``): the learner's camera as
-  (B, C, H, W) float32 in [0, 1], ready for rsl-rl's ``CNNModel``;
-- ``motion`` (with ``observations="camera_only"`` or ``"camera_lidar"``): the learner's own
-  forward speed and steering angle, (B, 2) float32 (state features 0 and 3,
-  ``MOTION_FEATURES``). A camera-only actor reads ``camera`` and ``motion``: no track geometry
-  and no other car's state, as DeepRacer's camera models (which get the image alone) plus the
-  car's odometry;
-- ``lidar`` (with ``observations="camera_lidar"``): the learner's lidar (``config.lidar``,
-  ``h2h_racing.sensors.lidar``; DeepRacer's by default: 64 ranges over +-150 deg, clipped to
-  [0.15, 1.0] m, a beam that hits nothing reads 1.0), (B, beams) float32, or (B, sectors)
-  with ``mode="sector_lidar"``. It sees the other cars, the boxes and the bot cars, not the
-  track's borders. A ``camera_lidar`` actor reads ``camera``, ``lidar`` and ``motion``:
-  DeepRacer's head-to-head sensor set (front camera and lidar) plus the car's odometry;
-- ``expert`` (with ``expert``): the action a scripted driver would take in the learner's place,
-  (B, 2) float32 in [-1, 1], computed from the same state as the other groups. It is the label
-  of imitation learning (``h2h_racing.training.teachers.ScriptedTeacher``): the learner drives, the
-  expert says what it would have done there (DAgger). No actor reads it.
-
-Training starts: ``random_starts`` (the default) starts each episode of a copy at a random
-point of the lap; ``EnvConfig.round_robin_starts`` instead moves each copy's start
-``round_robin_advance`` of a lap further at every reset of that copy (DeepRacer's training
-starts; each copy counts its own episodes, the first on the start line) and takes precedence.
-``EnvConfig.alternate_direction`` is refused: the copies of one core share a driving direction
-but reset one at a time (see ``RacingVecEnv``).
-
-Bot cars (``race_type="head_to_bot"`` or ``num_bots``) drive in every copy; the learner's state
-observation sees them in its opponent slots (the ``critic`` group's privileged part lists the
-other cars only). Boxes (``race_type="object_avoidance"`` or ``num_obstacles``) and bots are
-drawn per copy by the core at each of that copy's resets, from the VecEnv's seeded generator:
-with ``randomize_obstacles`` / ``randomize_bots`` every copy and every episode gets its own
-layout, as DeepRacer re-draws them per episode. A copy whose training start put a car on a box
-or right behind one (``BOX_CLEAR_BEHIND``, ``BOX_CLEAR_AHEAD``) is reset again with a new start
-and new boxes (up to ``START_TRIES`` times, then on the start line, which the core keeps
-clear): otherwise about one episode in six would start in a crash (speedway, 6 boxes).
+The observation groups are built in ``vec_env_observe``, the training starts (random points
+of the lap, clear of the boxes) drawn in ``vec_env_starts``, and the drivers of the other cars
+and of the expert labels held in ``vec_env_drivers``.
 
 DeepRacer inputs: ``reward_function`` replaces the built-in reward by a DeepRacer
 ``reward_function(params)`` file, loaded once per learner row (module-level state stays per
@@ -70,6 +43,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+from collections.abc import Sequence
 from typing import Any, Callable, Literal
 
 import numpy as np
@@ -93,34 +67,23 @@ from h2h_racing.deepracer.metadata import nearest_discrete  # noqa: E402
 from h2h_racing.race import TIME_EPS  # noqa: E402
 from h2h_racing.sensors.camera import CameraSensor  # noqa: E402
 from h2h_racing.sensors.lidar import LidarSensor  # noqa: E402
-from h2h_racing.sensors.state import MOTION_FEATURES, state_observation  # noqa: E402
 from h2h_racing.track import Track  # noqa: E402
 from h2h_racing.track_io import load_track  # noqa: E402
+from h2h_racing.training.vec_env_drivers import PoolOpponent, TrackDrivers  # noqa: E402
+from h2h_racing.training.vec_env_observe import (  # noqa: E402
+    ACTOR_GROUPS,
+    OBSERVATIONS,
+    VecEnvObservations,
+)
+from h2h_racing.training.vec_env_starts import VecEnvStarts  # noqa: E402
 
-ACTOR_GROUPS: dict[str, tuple[str, ...]] = {
-    "state": ("policy",), "camera": ("policy", "camera"), "camera_only": ("camera", "motion"),
-    "camera_lidar": ("camera", "lidar", "motion")}
-"""Observation groups the actor of each ``observations`` mode reads: the state vector; the
-camera and the state vector; the camera and the car's own motion; the camera, the lidar and
-the car's own motion. The VecEnv builds the groups of its mode (and always ``policy`` and
-``critic``)."""
-OBSERVATIONS = tuple(ACTOR_GROUPS)
-"""What the actor can be given (the keys of ``ACTOR_GROUPS``)."""
-
-BOX_CLEAR_BEHIND = 0.6
-"""A box whose centre is less than this behind a car's centre at its start blocks that start
-[m] (the box's half length 0.25 m plus the car's half length 0.16 m, and a margin)."""
-BOX_CLEAR_AHEAD = 1.5
-"""A box whose centre is less than this ahead of a car's centre at its start blocks that start
-[m]: room to steer round it from standstill."""
-START_TRIES = 16
-"""Draws of a clear start per reset copy before it starts on the start line."""
+__all__ = ["ACTOR_GROUPS", "OBSERVATIONS", "PoolOpponent", "RacingVecEnv"]
 
 Opponent = Callable[[RaceCore, int], npt.NDArray[np.floating]]
 """Drives car ``car`` of every copy: ``opponent(core, car) -> (E, 2)`` actions in [-1, 1]."""
 
 
-class RacingVecEnv(VecEnv):
+class RacingVecEnv(VecEnvObservations, VecEnvStarts, VecEnv):
     """Learner cars of a batched race core as rsl-rl rows.
 
     Args:
@@ -134,10 +97,14 @@ class RacingVecEnv(VecEnv):
             ``"camera_only"`` (adds the ``camera`` and ``motion`` groups) or
             ``"camera_lidar"`` (adds ``camera``, ``lidar`` and ``motion``); see
             ``ACTOR_GROUPS``.
-        seed: Seed of the core's random generator, and (spawned from it) of the lidar's noise
-            when ``config.lidar.noise_std > 0``.
+        seed: Seed of the core's random generator (one per track, ``RaceCore.track_seeds``, with
+            several tracks), and (spawned from it) of the lidar's noise when
+            ``config.lidar.noise_std > 0``.
         device: Torch device of the returned tensors.
-        track: A ``Track`` to use instead of loading ``config.track``.
+        track: A ``Track`` to use instead of loading ``config.track``, or K tracks: the copies
+            split into K blocks in track order (``num_envs`` a multiple of K), each block with
+            its own opponent and expert drivers (a driver name is built per track, seeded with
+            its track's seed; an object is copied per track, a ``PoolOpponent`` split).
         random_starts: Start each episode at a random point of the lap (drawn from the core's
             generator), as DeepRacer's training starts move round the lap, so that a policy
             learns every corner from every state; False starts on the start line. Ignored
@@ -157,7 +124,9 @@ class RacingVecEnv(VecEnv):
             boxes and bots; empty keeps ``config.race_type``.
 
     Raises:
-        ValueError: For bad arguments, and for ``config.alternate_direction``: the copies
+        ValueError: For bad arguments, for a DeepRacer reward function or simtrace logs with
+            several tracks (they are bound to one), and for ``config.alternate_direction``: the
+            copies
             share one driving direction but reset one at a time, so they cannot alternate.
             Train on ``track.reversed()``, switch with ``set_track(track.reversed())``
             between ``learn()`` calls, or use the PettingZoo env, which alternates.
@@ -167,7 +136,7 @@ class RacingVecEnv(VecEnv):
                  opponent: str | Any | None = None,
                  observations: Literal["state", "camera", "camera_only",
                                        "camera_lidar"] = "state", seed: int = 0,
-                 device: str = "cpu", track: Track | None = None,
+                 device: str = "cpu", track: Track | Sequence[Track] | None = None,
                  random_starts: bool = True, reward_function: str | None = None,
                  simtrace: str | None = None, simtrace_envs: int = 2,
                  simtrace_episodes: int = 20,
@@ -190,12 +159,19 @@ class RacingVecEnv(VecEnv):
                 "direction between learn() calls with set_track(track.reversed()), or use the "
                 "PettingZoo env (h2h_racing.parallel_env(alternate_direction=True)), which "
                 "alternates per episode")
+        tracks = ((load_track(config.track),) if track is None
+                  else (track,) if isinstance(track, Track) else tuple(track))
+        if not tracks or num_envs % len(tracks):
+            raise ValueError(f"{num_envs} env copies do not split evenly into {len(tracks)} "
+                             f"tracks; make num_envs a multiple of the number of tracks")
+        if len(tracks) > 1 and (reward_function is not None or simtrace is not None):
+            raise ValueError("a DeepRacer reward function or simtrace logs need one track; "
+                             "give one track (not several)")
         self.config = config
         self.race_types = tuple(race_types)
         self._tracks_set = 0
         self.cfg = config.to_dict()
-        self.track = track if track is not None else load_track(config.track)
-        self.core = RaceCore(config, self.track, num_envs=num_envs)
+        self.core = RaceCore(config, tracks, num_envs=num_envs)
         self.learners = learners
         self.num_envs = num_envs * learners
         self.num_actions = 2
@@ -205,7 +181,7 @@ class RacingVecEnv(VecEnv):
             config.max_cycles, int(np.ceil(self.core.rules.time_limit / config.step_dt - TIME_EPS)))
         self.episode_length_buf = torch.zeros(self.num_envs, dtype=torch.long, device=device)
         self._weights = rewards.weights_of(config.reward)
-        self._camera = (CameraSensor(config.camera, self.track, config.car,
+        self._camera = (CameraSensor(config.camera, tracks, config.car,
                                      (config.obstacle_length, config.obstacle_width))
                         if "camera" in ACTOR_GROUPS[observations] else None)
         self._lidar = (LidarSensor(config.lidar, config.car,
@@ -214,20 +190,16 @@ class RacingVecEnv(VecEnv):
         # The lidar's noise has a generator of its own (spawned from the seed, as the env's
         # is seeded from its own), so that turning noise on leaves the race's draws unchanged.
         self._lidar_rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0])
-        if isinstance(opponent, str):
-            from h2h_racing.policies import make_driver
-
-            opponent = make_driver(opponent, seed=seed)
-        self.opponent = opponent
-        if isinstance(expert, str):
-            from h2h_racing.policies import make_driver
-
-            expert = make_driver(expert, seed=seed)
-        self.expert = expert
+        self._seeds = ([seed] if len(tracks) == 1
+                       else RaceCore.track_seeds(seed, len(tracks)))
+        self._opponents = None if opponent is None else TrackDrivers(opponent, self.core,
+                                                                     self._seeds)
+        self._experts = None if expert is None else TrackDrivers(expert, self.core, self._seeds)
         self.random_starts = random_starts
         self.core.seed(seed)
-        self.core.reset(start=self._starts(num_envs))
-        self._clear_starts(np.ones(num_envs, dtype=bool))
+        every = np.ones(num_envs, dtype=bool)
+        self.core.reset(start=self._starts(every))
+        self._clear_starts(every)
         self.reward_function = reward_function
         self.reward_time_limit = reward_time_limit
         self._builders: list[Any] = []
@@ -263,6 +235,30 @@ class RacingVecEnv(VecEnv):
             self._camera.reset(self.core)
         self._obs = self._observe()
 
+    @property
+    def tracks(self) -> tuple[Track, ...]:
+        """The tracks the copies race, in block order."""
+        return self.core.forward_tracks
+
+    @property
+    def track(self) -> Track:
+        """The track every copy races (a VecEnv of several tracks has ``tracks``)."""
+        if self.core.num_tracks != 1:
+            raise AttributeError(f"this RacingVecEnv races {self.core.num_tracks} tracks, so it "
+                                 f"has no single track: see tracks")
+        return self.core.forward_track
+
+    @property
+    def opponent(self) -> Any:
+        """The driver of the cars that are not learners (None when every car learns): with
+        several tracks, the one given (each track drives with its own, ``TrackDrivers``)."""
+        return None if self._opponents is None else self._opponents.driver
+
+    @property
+    def expert(self) -> Any:
+        """The driver whose actions fill the ``expert`` group (None without one)."""
+        return None if self._experts is None else self._experts.driver
+
     # ---------------------------------------------------------------- rsl-rl API
     def get_observations(self) -> TensorDict:
         """Return the current observation groups."""
@@ -281,13 +277,16 @@ class RacingVecEnv(VecEnv):
         """
         core, cfg = self.core, self.config
         e, n, learners = core.num_envs, core.num_cars, self.learners
+        if tuple(actions.shape) != (self.num_envs, 2):
+            raise ValueError(f"actions must have shape ({self.num_envs}, 2) (one row per learner "
+                             f"car of every copy), got {tuple(actions.shape)}")
         values = actions.detach().to("cpu", torch.float64).numpy().reshape(e, learners, 2)
         if not np.isfinite(values).all():
             raise ValueError("actions contain NaN or inf")
         commands = np.empty((e, n, 2))
         commands[:, :learners] = values
         for car in range(learners, n):
-            commands[:, car] = self.opponent.act(core, car)
+            commands[:, car] = self._opponents.act(car)
         index = None
         if cfg.action_type == "discrete":
             # Every car drives the nearest action of the list (see the module docstring).
@@ -314,7 +313,7 @@ class RacingVecEnv(VecEnv):
         time_outs = dones & ~terminated
         log = self._episode_log(ended, terms) if ended.any() else {}
         if ended.any():
-            core.reset_envs(ended, start=self._starts(int(ended.sum())))
+            core.reset_envs(ended, start=self._starts(ended))
             self._clear_starts(ended)
             if self._camera is not None:
                 self._camera.reset(core)
@@ -365,12 +364,8 @@ class RacingVecEnv(VecEnv):
     def set_opponent(self, opponent: str | Any) -> None:
         """Drive the non-learner cars with ``opponent`` from now on (a driver name or object;
         a league changes its learners' opponents between ``learn()`` calls)."""
-        if isinstance(opponent, str):
-            from h2h_racing.policies import make_driver
-
-            opponent = make_driver(opponent)
-        self.opponent = opponent
-        self.opponent.reset(self.core)
+        self._opponents = TrackDrivers(opponent, self.core, self._seeds)
+        self._opponents.reset()
 
     def close(self) -> None:
         """Write the simtrace's metrics and unfinished episodes (no-op without simtrace)."""
@@ -378,20 +373,30 @@ class RacingVecEnv(VecEnv):
             self.simtrace.close()
 
     def set_track(self, track: Track) -> None:
-        """Race on ``track`` from now on: every copy restarts on it (same generator stream).
+        """Race on ``track`` from now on (``set_tracks([track])``, for a VecEnv of one track)."""
+        self.set_tracks([track])
+
+    def set_tracks(self, tracks: Sequence[Track]) -> None:
+        """Race ``tracks[k]`` in block ``k`` of the copies from now on: every copy restarts on
+        its track (the same generator streams, the same drivers, each reset for its track).
 
         Call it between ``learn()`` calls (rsl-rl reads ``get_observations()`` at the start of
-        each); training on a new random track every few iterations teaches policies to drive
-        tracks they have never seen.
-        With ``race_types`` each call also moves on to the next race type.
+        each); training on new random tracks every few iterations teaches policies to drive
+        tracks they have never seen. With ``race_types`` each call also moves on to the next
+        race type.
 
         Raises:
-            ValueError: With a DeepRacer reward function or simtrace logs, which are bound to
-                one track.
+            ValueError: Unless there is one track per block (as many as the VecEnv was built
+                with), and with a DeepRacer reward function or simtrace logs, which are bound
+                to one track.
         """
         if self._deepracer or self.simtrace is not None:
             raise ValueError("a DeepRacer reward function or simtrace logs need one track; "
                              "train on a fixed track (not 'procedural') to use them")
+        tracks = tuple(tracks)
+        if len(tracks) != self.core.num_tracks:
+            raise ValueError(f"set_tracks needs one track per block of copies "
+                             f"({self.core.num_tracks}), got {len(tracks)}")
         if self.race_types:
             # Only the race type's default boxes and bots change: the rules are the run's own,
             # fixed in self.config (RaceSettings.rules_type).
@@ -399,17 +404,19 @@ class RacingVecEnv(VecEnv):
             self.config = dataclasses.replace(self.config, race_type=kind)
             self.cfg = self.config.to_dict()
         self._tracks_set += 1
-        rng = self.core.rng
-        max_cycles = self.core.max_cycles
-        self.track = track
-        self.core = RaceCore(self.config, track, num_envs=self.core.num_envs)
-        self.core.rng = rng
-        self.core.max_cycles = max_cycles
-        self.core.reset(start=self._starts(self.core.num_envs))
-        self._clear_starts(np.ones(self.core.num_envs, dtype=bool))
+        old = self.core
+        self.core = RaceCore(self.config, tracks, num_envs=old.num_envs)
+        self.core.rngs = old.rngs
+        self.core.max_cycles = old.max_cycles
+        every = np.ones(self.core.num_envs, dtype=bool)
+        self.core.reset(start=self._starts(every))
+        self._clear_starts(every)
+        for drivers in (self._opponents, self._experts):
+            if drivers is not None:
+                drivers.bind(self.core)
         self._reset_drivers()
         if self._camera is not None:
-            self._camera = CameraSensor(self.config.camera, track, self.config.car,
+            self._camera = CameraSensor(self.config.camera, tracks, self.config.car,
                                         (self.config.obstacle_length, self.config.obstacle_width))
             self._camera.reset(self.core)
         self._obs = self._observe()
@@ -435,83 +442,13 @@ class RacingVecEnv(VecEnv):
         return reward
 
     def _reset_drivers(self) -> None:
-        """Per-track precompute of the opponent and the expert (racing lines are cached)."""
-        for driver in (self.opponent, self.expert):
-            if driver is not None:
-                driver.reset(self.core)
-
-    def _clear_starts(self, mask: npt.NDArray[np.bool_]) -> None:
-        """Reset again the copies in ``mask`` whose start has a box on or just ahead of a car,
-        with new starts (and new boxes when randomised); after ``START_TRIES`` draws the
-        copies still blocked start on the start line, clear of the core's boxes."""
-        core = self.core
-        if not core.num_obstacles:
-            return
-        for tries in range(START_TRIES + 1):
-            blocked = mask & self._blocked_starts()
-            if not blocked.any():
-                return
-            count = int(blocked.sum())
-            start = self._starts(count) if tries < START_TRIES else np.zeros(count)
-            core.reset_envs(blocked, start=start)
-
-    def _blocked_starts(self) -> npt.NDArray[np.bool_]:
-        """Copies with a box centre within ``BOX_CLEAR_BEHIND`` behind or ``BOX_CLEAR_AHEAD``
-        ahead of a car along the lap, on either lane, (E,)."""
-        core = self.core
-        gap = np.mod(core.obstacle_s[:, None, :] - core.s[:, :, None] + BOX_CLEAR_BEHIND,
-                     self.track.length)
-        return (gap < BOX_CLEAR_BEHIND + BOX_CLEAR_AHEAD).any(axis=(1, 2))
-
-    def _starts(self, count: int) -> npt.NDArray[np.float64] | None:
-        # None lets the core place the start: on the line, or its round-robin rotation.
-        if not self.random_starts or self.config.round_robin_starts:
-            return None
-        return self.core.rng.uniform(0.0, self.track.length, count)
+        """Per-track precompute of the opponents and the experts (racing lines are cached)."""
+        for drivers in (self._opponents, self._experts):
+            if drivers is not None:
+                drivers.reset()
 
     def _tensor(self, array: npt.NDArray[Any], dtype: torch.dtype) -> torch.Tensor:
         return torch.tensor(np.asarray(array), dtype=dtype, device=self.device)
-
-    def _observe(self) -> TensorDict:
-        core, learners = self.core, self.learners
-        e = core.num_envs
-        state = state_observation(core)
-        policy = state[:, :learners].reshape(e * learners, -1)
-        groups = {"policy": self._tensor(policy, torch.float32),
-                  "critic": self._tensor(np.concatenate(
-                      [policy, self._privileged().reshape(e * learners, -1)], axis=1),
-                      torch.float32)}
-        if self._camera is not None:
-            frames = self._camera.observe(core)[:, :learners]
-            frames = frames.reshape(e * learners, *frames.shape[2:]).transpose(0, 3, 1, 2)
-            groups["camera"] = self._tensor(frames, torch.float32).div_(255.0)
-        if self._lidar is not None:
-            ranges = self._lidar.observe(core, self._lidar_rng)[:, :learners]
-            groups["lidar"] = self._tensor(ranges.reshape(e * learners, -1), torch.float32)
-        if "motion" in ACTOR_GROUPS[self.observation_kind]:
-            groups["motion"] = self._tensor(policy[:, list(MOTION_FEATURES)], torch.float32)
-        if self.expert is not None:
-            # One batched call per learner car (over every copy), as the opponents are driven.
-            labels = np.stack([self.expert.act(core, car) for car in range(learners)], axis=1)
-            groups["expert"] = self._tensor(np.clip(labels, -1.0, 1.0).reshape(e * learners, 2),
-                                            torch.float32)
-        return TensorDict(groups, batch_size=[e * learners], device=self.device)
-
-    def _privileged(self) -> npt.NDArray[np.float32]:
-        """Every other car's gap, offset, speed and heading error, (E, L, 4 (N - 1))."""
-        core, learners = self.core, self.learners
-        e, n = core.num_envs, core.num_cars
-        length = self.track.length
-        gap = core.s[:, None, :] - core.s[:, :learners, None]
-        gap = gap - length * np.floor(gap / length + 0.5)
-        error = core.yaw - self.track.heading_at(core.s)
-        error = np.arctan2(np.sin(error), np.cos(error))
-        per_car = np.stack([np.clip(gap / 5.0, -5, 5),
-                            np.broadcast_to(core.d[:, None, :], gap.shape),
-                            np.broadcast_to(core.speed[:, None, :] / 4.0, gap.shape),
-                            np.broadcast_to(error[:, None, :], gap.shape)], axis=-1)
-        others = ~np.eye(learners, n, dtype=bool)
-        return per_car[:, others].reshape(e, learners, -1) if n > 1 else np.zeros((e, learners, 0))
 
     def _episode_log(self, ended: npt.NDArray[np.bool_],
                      terms: npt.NDArray[np.float64]) -> dict[str, float]:
@@ -533,37 +470,3 @@ class RacingVecEnv(VecEnv):
         if lap_times:  # rsl-rl averages what it is given; no NaN for "no lap yet"
             log["lap_time"] = float(np.mean(lap_times))
         return log
-
-
-class PoolOpponent:
-    """Drives the opponent car of each env copy with that copy's driver.
-
-    Args:
-        specs: Driver of each env copy (``make_driver`` argument), length E.
-        seed: Seeds the ``random`` driver, if it plays.
-    """
-
-    def __init__(self, specs: tuple[str, ...], seed: int = 0) -> None:
-        from h2h_racing.policies import make_driver
-
-        self.names = sorted(set(specs))
-        self.drivers = [make_driver(name, rng=np.random.default_rng(seed)) if name == "random"
-                        else make_driver(name) for name in self.names]
-        index = {name: i for i, name in enumerate(self.names)}
-        self.assignment = np.array([index[s] for s in specs])
-
-    def reset(self, core: Any) -> None:
-        """Reset every driver (each drives all copies; rows are picked in ``act``)."""
-        if len(self.assignment) != core.num_envs:
-            raise ValueError(f"{len(self.assignment)} opponent assignments for "
-                             f"{core.num_envs} env copies")
-        for driver in self.drivers:
-            driver.reset(core)
-
-    def act(self, core: Any, car: int) -> np.ndarray:
-        """Actions of car ``car`` in every copy, each from its copy's driver, (E, 2)."""
-        actions = np.empty((core.num_envs, 2), dtype=np.float32)
-        for k, driver in enumerate(self.drivers):
-            rows = self.assignment == k
-            actions[rows] = np.asarray(driver.act(core, car))[rows]
-        return actions
