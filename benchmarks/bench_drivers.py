@@ -27,8 +27,8 @@ import time
 import numpy as np
 
 import h2h_racing
-from h2h_racing.config import EnvConfig, RaceRules
-from h2h_racing.core import RaceCore
+from h2h_racing.config.env import EnvConfig, RaceRules
+from h2h_racing.sim.core import RaceCore
 from h2h_racing.policies import make_driver
 
 ENDLESS = RaceRules(laps=0, time_limit=1e9)

@@ -25,8 +25,8 @@ import numba
 import numpy as np
 
 import h2h_racing
-from h2h_racing.config import EnvConfig, RaceRules
-from h2h_racing.core import RaceCore
+from h2h_racing.config.env import EnvConfig, RaceRules
+from h2h_racing.sim.core import RaceCore
 from h2h_racing.sensors.camera import CameraConfig, CameraSensor
 from h2h_racing.sensors.lidar import LidarConfig, LidarSensor
 

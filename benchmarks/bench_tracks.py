@@ -44,8 +44,8 @@ import numpy as np  # noqa: E402
 import torch  # noqa: E402
 from rsl_rl.env import VecEnv  # noqa: E402
 
-from h2h_racing.core import RaceCore  # noqa: E402
-from h2h_racing.track_io import load_track  # noqa: E402
+from h2h_racing.sim.core import RaceCore  # noqa: E402
+from h2h_racing.track.io import load_track  # noqa: E402
 from h2h_racing.training.config import TrainConfig  # noqa: E402
 from h2h_racing.training.tracks import ProceduralTracks  # noqa: E402
 from h2h_racing.training.train import make_runner  # noqa: E402

@@ -25,9 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from h2h_racing.config import EnvConfig
+from h2h_racing.config.env import EnvConfig
 from h2h_racing.match import run_race
-from h2h_racing.viz import import_rerun
+from h2h_racing.viz.recorder import import_rerun
 
 DRIVERS = ("racing_line", "pure_pursuit")
 RTF_BUDGET = 5.0

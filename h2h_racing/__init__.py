@@ -10,19 +10,19 @@
 from gymnasium.envs.registration import register as _register_gymnasium_env
 from gymnasium.envs.registration import registry as _gymnasium_registry
 
-from h2h_racing.config import CarParams, EnvConfig, RaceRules, RewardConfig
-from h2h_racing.core import RaceCore
-from h2h_racing.env import RacingEnv, env, parallel_env
-from h2h_racing.track import Track
-from h2h_racing.track_io import load_track
+from h2h_racing.config.env import CarParams, EnvConfig, RaceRules, RewardConfig
+from h2h_racing.sim.core import RaceCore
+from h2h_racing.envs.parallel import RacingEnv, env, parallel_env
+from h2h_racing.track.shape import Track
+from h2h_racing.track.io import load_track
 
 __version__ = "0.1.0"
 
 # The single-agent Gymnasium view: gymnasium.make("h2h_racing/Race-v0", ...). The entry point
-# is a string, so gymnasium imports h2h_racing.single_agent only when the env is made.
+# is a string, so gymnasium imports h2h_racing.envs.single_agent only when the env is made.
 if "h2h_racing/Race-v0" not in _gymnasium_registry:
     _register_gymnasium_env(id="h2h_racing/Race-v0",
-                            entry_point="h2h_racing.single_agent:SingleAgentRaceEnv")
+                            entry_point="h2h_racing.envs.single_agent:SingleAgentRaceEnv")
 
 __all__ = [
     "CarParams",

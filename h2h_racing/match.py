@@ -16,11 +16,11 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from h2h_racing.config import RaceRules
+from h2h_racing.config.env import RaceRules
 from h2h_racing.deepracer.metadata import nearest_discrete
-from h2h_racing.env import RacingEnv
-from h2h_racing.progress import WIDTH, Progress
-from h2h_racing.results import format_results
+from h2h_racing.envs.parallel import RacingEnv
+from h2h_racing.common.progress import WIDTH, Progress
+from h2h_racing.envs.results import format_results
 
 VIDEO_CODECS: dict[str, tuple[tuple[str, str], ...]] = {
     ".mp4": (("avc1", "H.264"), ("mp4v", "MPEG-4 Part 2")),
@@ -42,7 +42,7 @@ class RaceResult:
     drivers: tuple[str, ...]
     """Driver name of car i, in car order."""
     rows: list[dict[str, Any]]
-    """One dict per car in race order (see ``h2h_racing.results.race_results``)."""
+    """One dict per car in race order (see ``h2h_racing.envs.results.race_results``)."""
     steps: int
     """Env steps the race took."""
     rewards: tuple[float, ...] | None = None
@@ -60,7 +60,7 @@ class RaceResult:
     video_codec: str = ""
     """Its codec (a name in ``VIDEO_CODECS``)."""
     viewer: Any = field(default=None, repr=False, compare=False)
-    """With ``serve=True``: the ``h2h_racing.viz.RaceRecorder`` still serving the web viewer
+    """With ``serve=True``: the ``h2h_racing.viz.recorder.RaceRecorder`` still serving the web viewer
     (``viewer.viewer_url``); ``viewer.serve_until(seconds)`` keeps it up, then closes it."""
 
     @property
@@ -142,7 +142,7 @@ def run_race(track: str, drivers: Sequence[str | Any], race_type: str = "head_to
     options = {"grid": grid} if grid is not None else None
     recorder = None
     if save is not None or spawn or serve:
-        from h2h_racing.viz import RaceRecorder
+        from h2h_racing.viz.recorder import RaceRecorder
 
         recorder = RaceRecorder(env, path=save, spawn=spawn, serve=serve, web_port=web_port,
                                 grpc_port=grpc_port)
@@ -212,7 +212,7 @@ def run_race(track: str, drivers: Sequence[str | Any], race_type: str = "head_to
 
 
 class ProgressBar:
-    """A race's progress line on stderr (``h2h_racing.progress``), shown once the race has
+    """A race's progress line on stderr (``h2h_racing.common.progress``), shown once the race has
     run a while.
 
     The fraction done is the larger of the last running car's share of the lap target and

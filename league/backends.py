@@ -26,7 +26,7 @@ from concurrent.futures.process import BrokenProcessPool
 from typing import Any, TypeVar
 
 from h2h_racing.league.stopping import ignore_sigint, sigint_ignored
-from h2h_racing.lifeline import die_with_parent, started_from_main_thread
+from h2h_racing.common.lifeline import die_with_parent, started_from_main_thread
 
 J = TypeVar("J")
 R = TypeVar("R")
@@ -67,7 +67,7 @@ class LocalBackend:
 
     Workers are started with ``spawn`` (a fresh interpreter: no inherited torch/OpenMP
     threads, which ``fork`` can deadlock on). They die with this process, even a ``kill -9``'d
-    one (``h2h_racing.lifeline``), and with them multiprocessing's resource tracker, which
+    one (``h2h_racing.common.lifeline``), and with them multiprocessing's resource tracker, which
     exits once every process holding its pipe is gone.
 
     Args:

@@ -23,7 +23,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from h2h_racing.progress import NO_ETA, Progress, add_progress_flag, progress_mode
+from h2h_racing.common.progress import NO_ETA, Progress, add_progress_flag, progress_mode
 
 DEFAULT_LEAGUE = "runs/league.sqlite"
 LEAGUE_FILE_HELP = "league file (SQLite; a league run writes runs/leagues/NAME/league.sqlite)"
@@ -168,7 +168,7 @@ def _cmd_tournament(args: argparse.Namespace) -> int:
 def _cmd_league_train(args: argparse.Namespace) -> int:
     import dataclasses
 
-    from h2h_racing.configs import resolve_config
+    from h2h_racing.config.shipped import resolve_config
     from h2h_racing.league.config import LeagueConfig
     from h2h_racing.league.selfplay import STOP_FILE, League
     from h2h_racing.league.stopping import EXIT_INTERRUPTED, StopSwitch, resume_command

@@ -16,8 +16,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from h2h_racing.config_checks import _is_int as _is_integer
-from h2h_racing.config_checks import _is_number
+from h2h_racing.config.checks import _is_int as _is_integer
+from h2h_racing.config.checks import _is_number
 from h2h_racing.training.imitation import ImitationConfig
 from h2h_racing.training.limits import MAX_NUM_ENVS, MAX_STEPS_PER_ENV, check_count, check_rollout
 from h2h_racing.training.toml_types import build_tables, check_fields, read_toml
@@ -403,7 +403,7 @@ class LeagueConfig:
 
     def train_config(self, seed: int) -> Any:
         """The ``TrainConfig`` of every learner: two cars, one learner, race tracks."""
-        from h2h_racing.config import RewardConfig
+        from h2h_racing.config.env import RewardConfig
         from h2h_racing.training.config import PPOConfig, TrainConfig
 
         training = self.training

@@ -1,4 +1,4 @@
-"""What a league run shows while it runs: one progress line (``h2h_racing.progress``) over its
+"""What a league run shows while it runs: one progress line (``h2h_racing.common.progress``) over its
 time budget with the round's phase and that phase's own count, the round lines, and the same
 lines in ``league.log`` beside ``league.sqlite``.
 
@@ -24,7 +24,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TextIO
 
-from h2h_racing.progress import Mode, Progress
+from h2h_racing.common.progress import Mode, Progress
 
 LOG_FILE = "league.log"
 """The run's log, beside ``league.sqlite``."""

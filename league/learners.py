@@ -80,7 +80,7 @@ def train_round(job: TrainJob) -> dict[str, float]:
     from rsl_rl.runners import OnPolicyRunner
 
     from h2h_racing.training.vec_env import PoolOpponent
-    from h2h_racing.track_io import load_track
+    from h2h_racing.track.io import load_track
 
     torch.set_num_threads(1)
     folder = Path(job.folder)

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from h2h_racing.extras import missing_extra
+from h2h_racing.common.extras import missing_extra
 
 DPI = 100
 """Dots per inch of the figures: ``size`` in pixels is ``figsize * DPI``."""

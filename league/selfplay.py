@@ -60,7 +60,7 @@ from h2h_racing.league.main_restore import KeepsBest, round_of
 from h2h_racing.league.stopping import StopSwitch
 from h2h_racing.league.store import LeagueStore, Player, file_sha256, player_for
 from h2h_racing.league.tournament import PAIR_ORDERS, Job, make_job, run_job
-from h2h_racing.progress import Mode
+from h2h_racing.common.progress import Mode
 
 ELAPSED = "elapsed_seconds"
 """Meta key of the league's time so far over all its runs [s] (the budget's clock)."""

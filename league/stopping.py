@@ -13,7 +13,7 @@ contact callbacks, which prints ``Exception ignored from cffi callback`` and swa
   loops check at their safe points; a second Ctrl-C ends the process at once, with one line
   and exit status 130 (128 + SIGINT, the shell's convention).
 
-``resume_command`` (``h2h_racing.cli_help.command_line``) writes back the command line that
+``resume_command`` (``h2h_racing.cli.help.command_line``) writes back the command line that
 resumes a stopped command.
 """
 
@@ -28,7 +28,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from h2h_racing.cli_help import command_line as resume_command  # noqa: F401  (re-exported)
+from h2h_racing.cli.help import command_line as resume_command  # noqa: F401  (re-exported)
 
 EXIT_INTERRUPTED = 128 + signal.SIGINT
 """Exit status of a command stopped by Ctrl-C (130)."""
@@ -109,7 +109,7 @@ class StopSwitch:
             sys.stderr.flush()
         finally:
             # Everything committed to the league file is kept (one transaction per write);
-            # workers die with this process (h2h_racing.lifeline).
+            # workers die with this process (h2h_racing.common.lifeline).
             os._exit(EXIT_INTERRUPTED)
 
     def _remove_file(self) -> None:

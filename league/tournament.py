@@ -146,7 +146,7 @@ def _race_start(seed: int, track: str, race: int, length: float) -> float:
 
 def race_config(track: str, num_cars: int, laps: int) -> Any:
     """The ``EnvConfig`` of a tournament (or league) race of ``laps`` laps."""
-    from h2h_racing.config import EnvConfig, RaceRules
+    from h2h_racing.config.env import EnvConfig, RaceRules
 
     rules = RaceRules(laps=laps, time_limit=60.0 * laps)
     return EnvConfig(track=track, num_cars=num_cars, race_type=RACE_TYPE, rules=rules)
@@ -155,7 +155,7 @@ def race_config(track: str, num_cars: int, laps: int) -> Any:
 def track_fingerprint(track: str) -> str:
     """SHA-256 (hex, 16 digits) of a track's geometry: a track file edited between two runs of
     a tournament is a different track under the same name."""
-    from h2h_racing.track_io import load_track
+    from h2h_racing.track.io import load_track
 
     loaded = load_track(track)
     digest = hashlib.sha256()
@@ -238,7 +238,7 @@ def _leaves(settings: dict[str, Any], prefix: str = "") -> dict[str, Any]:
 
 
 def _track_length(track: str) -> float:
-    from h2h_racing.track_io import load_track
+    from h2h_racing.track.io import load_track
 
     return load_track(track).length  # load_track caches named tracks
 
@@ -329,10 +329,10 @@ def run_job(job: Job) -> list[MatchRecord]:
     records.
     """
     os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")
-    from h2h_racing.core import RaceCore
+    from h2h_racing.sim.core import RaceCore
     from h2h_racing.policies import make_driver
-    from h2h_racing.results import race_results
-    from h2h_racing.track_io import load_track
+    from h2h_racing.envs.results import race_results
+    from h2h_racing.track.io import load_track
 
     _one_thread()
     track = load_track(job.track)

@@ -15,11 +15,11 @@ import argparse
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from h2h_racing.config import EnvConfig
+from h2h_racing.config.env import EnvConfig
 from h2h_racing.policies.racing_line import compute_race_line, reference_lap_time
 from h2h_racing.policies.registry import make_driver
 from h2h_racing.policies.scripted import drive, race_core
-from h2h_racing.track import Track
+from h2h_racing.track.shape import Track
 
 
 @dataclass(frozen=True)
@@ -76,7 +76,7 @@ def lap_time_table(argv: Sequence[str] | None = None) -> None:
     """Print the one-lap time of each driver alone on each catalogue track, driven from a
     standing start, beside the racing line's profile lap and the minimum-time reference lap
     (estimates; ``track_laps``)."""
-    from h2h_racing.track_io import list_tracks, load_track
+    from h2h_racing.track.io import list_tracks, load_track
 
     parser = argparse.ArgumentParser(description=lap_time_table.__doc__)
     parser.add_argument("--drivers", nargs="+", default=["pure_pursuit", "racing_line", "blocker"],

@@ -38,7 +38,7 @@ import numpy.typing as npt
 from h2h_racing.policies.racing_line import GRAVITY
 
 if TYPE_CHECKING:
-    from h2h_racing.core import RaceCore
+    from h2h_racing.sim.core import RaceCore
 
 FloatArray = npt.NDArray[np.float64]
 

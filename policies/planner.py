@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from h2h_racing.core import RaceCore
+from h2h_racing.sim.core import RaceCore
 from h2h_racing.policies import planner_kernel as kernel
 from h2h_racing.policies import tracking
 from h2h_racing.policies.obstacles import avoid_obstacles
@@ -49,7 +49,7 @@ from h2h_racing.policies.racing_line import (GRAVITY, compute_race_line, line_cu
                                              speed_profile)
 from h2h_racing.policies.registry import Setting
 from h2h_racing.policies.steering import lookahead, pursuit_steer, to_action
-from h2h_racing.track import Track
+from h2h_racing.track.shape import Track
 
 FloatArray = npt.NDArray[np.float64]
 

@@ -32,9 +32,9 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from h2h_racing.config import CarParams
+from h2h_racing.config.env import CarParams
 from h2h_racing.policies.banded import box_qp
-from h2h_racing.track import Track
+from h2h_racing.track.shape import Track
 
 FloatArray = npt.NDArray[np.float64]
 

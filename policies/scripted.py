@@ -1,6 +1,6 @@
 """Scripted drivers: privileged, batched baselines and opponents.
 
-A driver controls one car index in every env copy of a :class:`~h2h_racing.core.RaceCore`
+A driver controls one car index in every env copy of a :class:`~h2h_racing.sim.core.RaceCore`
 at once and reads the true state (like DeepRacer's bot cars). It returns actions in the
 env's continuous action space, ``[steer, speed]`` in ``[-1, 1]``, one row per env copy.
 
@@ -31,8 +31,8 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 import numpy.typing as npt
 
-from h2h_racing.config import EnvConfig, RaceRules
-from h2h_racing.core import RaceCore
+from h2h_racing.config.env import EnvConfig, RaceRules
+from h2h_racing.sim.core import RaceCore
 from h2h_racing.policies.obstacles import avoid_obstacles
 from h2h_racing.policies.planner import Planner
 from h2h_racing.policies.racing_line import GRAVITY, RaceLine, compute_race_line
@@ -42,7 +42,7 @@ from h2h_racing.policies.steering import (  # re-exported: the drivers' shared h
     pursuit_steer,
     to_action,
 )
-from h2h_racing.track import Track
+from h2h_racing.track.shape import Track
 
 FloatArray = npt.NDArray[np.float64]
 ActionArray = npt.NDArray[np.float32]
@@ -450,7 +450,7 @@ def race_core(track: str | Track, num_cars: int, laps: int = 1, num_envs: int = 
         seed: Reset seed.
         **config: Further ``EnvConfig`` fields.
     """
-    from h2h_racing.track_io import load_track
+    from h2h_racing.track.io import load_track
 
     track_obj = track if isinstance(track, Track) else load_track(track)
     cfg = EnvConfig(track=track_obj.name, num_cars=num_cars, grid="fixed",

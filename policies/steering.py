@@ -16,7 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 if TYPE_CHECKING:
-    from h2h_racing.core import RaceCore
+    from h2h_racing.sim.core import RaceCore
 
 FloatArray = npt.NDArray[np.float64]
 ActionArray = npt.NDArray[np.float32]

@@ -46,10 +46,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from h2h_racing.dynamics import GRAVITY
+from h2h_racing.sim.dynamics import GRAVITY
 
 if TYPE_CHECKING:
-    from h2h_racing.core import RaceCore
+    from h2h_racing.sim.core import RaceCore
 
 FloatArray = npt.NDArray[np.float64]
 

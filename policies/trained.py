@@ -17,12 +17,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from h2h_racing.extras import missing_extra
+from h2h_racing.common.extras import missing_extra
 from h2h_racing.policies.weights import WeightsFileError, check_keys, load_weights
 from h2h_racing.training.limits import check_hidden_dims
 
 if TYPE_CHECKING:
-    from h2h_racing.core import RaceCore
+    from h2h_racing.sim.core import RaceCore
 
 POLICY_FORMAT = "h2h-racing-policy/1"
 """Value of the ``format`` key of a policy file (as ``training.policy_file.save_policy`` writes
@@ -105,7 +105,7 @@ def _sensors(payload: dict[str, Any]) -> list[str]:
 def _sensor_config(payload: dict[str, Any], group: str, source: str) -> Any:
     """The ``CameraConfig`` or ``LidarConfig`` the policy was trained with, from its
     ``env_config[group]``, or a ``WeightsFileError`` naming ``source`` and the bad setting."""
-    from h2h_racing.config import CameraConfig, LidarConfig
+    from h2h_racing.config.env import CameraConfig, LidarConfig
 
     kind = {"camera": CameraConfig, "lidar": LidarConfig}[group]
     try:

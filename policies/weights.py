@@ -22,7 +22,7 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-from h2h_racing.extras import missing_extra
+from h2h_racing.common.extras import missing_extra
 
 
 _UNSAFE_OBJECT = ("GLOBAL", "allowlisted", "Can only")

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import h2h_racing
-from h2h_racing.track import Track
+from h2h_racing.track.shape import Track
 
 CIRCLE_RADIUS = 3.0  # [m] default radius of the test circle
 CIRCLE_HALF_WIDTH = 0.5  # [m] half-width of the test circle

@@ -1,7 +1,7 @@
 """Regenerate the h2h-racing track catalogue: ``tracks/<name>.json`` and ``tracks/<name>.png``.
 
 Run from anywhere with ``python tracks/design.py``; it writes next to this file. Every track is drawn from
-hand-chosen control points (original shapes) through :func:`h2h_racing.track_gen.smooth_closed_curve`,
+hand-chosen control points (original shapes) through :func:`h2h_racing.track.generator.smooth_closed_curve`,
 scaled to a chosen lap length, checked (no self-intersection of the centre line or the borders, minimum
 radius of curvature >= 1.2 x the local half-width, DeepRacer-scale width and length, counter-clockwise),
 and only then written. The script exits non-zero, writing nothing, if any track fails its checks.
@@ -23,7 +23,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from h2h_racing.track_gen import (
+from h2h_racing.track.generator import (
     RADIUS_TO_HALF_WIDTH,
     TrackMetrics,
     TrackSpec,

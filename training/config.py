@@ -16,11 +16,11 @@ from pathlib import Path
 from typing import Any, Literal
 
 
-from h2h_racing.config import EnvConfig, RaceRules, RewardConfig
-from h2h_racing.config_sensors import HFOV_RANGE_DEG, MAX_FRAME_STACK
+from h2h_racing.config.env import EnvConfig, RaceRules, RewardConfig
+from h2h_racing.config.sensors import HFOV_RANGE_DEG, MAX_FRAME_STACK
 from h2h_racing.deepracer.reward import check_time_limit
 from h2h_racing.policies.registry import parse_driver_spec
-from h2h_racing.track_io import load_track
+from h2h_racing.track.io import load_track
 from h2h_racing.training.camera_network import check_camera, cnn_config
 from h2h_racing.training.config_file import read_train_toml
 from h2h_racing.training.device import check_device_name

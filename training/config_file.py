@@ -58,7 +58,7 @@ def _read(path: Path, chain: list[Path]) -> dict[str, Any]:
 
 def _base_path(path: Path, base: str) -> Path:
     """``base`` beside ``path``, else the shipped training config of that name."""
-    from h2h_racing.configs import shipped_configs
+    from h2h_racing.config.shipped import shipped_configs
 
     beside = path.parent / base
     if beside.is_file():

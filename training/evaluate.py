@@ -14,10 +14,10 @@ from typing import Any
 
 import numpy as np
 
-from h2h_racing.config import EnvConfig, RaceRules
-from h2h_racing.core import RaceCore
-from h2h_racing.track import Track
-from h2h_racing.track_io import load_track
+from h2h_racing.config.env import EnvConfig, RaceRules
+from h2h_racing.sim.core import RaceCore
+from h2h_racing.track.shape import Track
+from h2h_racing.track.io import load_track
 
 
 @dataclass(frozen=True)
@@ -265,7 +265,7 @@ class HeadToHead:
     defences: tuple[int, int] = (0, 0)
     """Defences by each driver, over all races: the other car pressured it (less than
     ``RaceRules.defence_gap`` = 1 m of track behind for at least ``defence_time`` = 2 s, and
-    faster at some moment) and dropped back without passing (``h2h_racing.race``)."""
+    faster at some moment) and dropped back without passing (``h2h_racing.sim.race``)."""
     start: str = "both"
     """A's grid slot (``START_CHOICES``)."""
     gap: float = 0.75

@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from h2h_racing.config import EnvConfig
-from h2h_racing.track_io import load_track
+from h2h_racing.config.env import EnvConfig
+from h2h_racing.track.io import load_track
 from h2h_racing.training.evaluate import race_batch
 
 

@@ -28,7 +28,7 @@ import numpy as np
 from h2h_racing.training.evaluate import Evaluation, RaceEvaluation
 
 TRACK_SUFFIXES = (".json", ".npy", ".csv")
-"""Suffixes of the files a folder's routes are read from (``h2h_racing.track_io``)."""
+"""Suffixes of the files a folder's routes are read from (``h2h_racing.track.io``)."""
 
 
 @dataclass(frozen=True)
@@ -65,7 +65,7 @@ def route_sources(items: Sequence[str]) -> RouteSources:
     Raises:
         ValueError: For an unknown name, a folder without a track file, or no route at all.
     """
-    from h2h_racing.track_io import RANDOM_PREFIX, catalogue
+    from h2h_racing.track.io import RANDOM_PREFIX, catalogue
 
     names = catalogue()
     routes: list[RouteSource] = []
@@ -200,9 +200,9 @@ RouteResult = Union[RouteLaps, RouteRaces, RouteFailure]
 def evaluate_route(task: RouteTask) -> RouteResult:
     """Evaluate ``task``'s route (see the module docstring); a file that cannot be loaded or
     raced (``ValueError``, ``OSError``) gives a ``RouteFailure`` instead."""
-    from h2h_racing.config import EnvConfig
+    from h2h_racing.config.env import EnvConfig
     from h2h_racing.policies import make_driver, reference_lap_time
-    from h2h_racing.track_io import load_track
+    from h2h_racing.track.io import load_track
     from h2h_racing.training.evaluate import evaluate, evaluate_races
 
     route, source = task.source.route, task.source.source
@@ -238,7 +238,7 @@ def default_jobs(routes: int) -> int:
 def _start_worker(parent: int, death_signal: bool, threads: int) -> None:
     """A pool worker's first act: die with the parent, and keep torch to its share of the
     cores (``jobs`` workers with a torch thread per core each would fight over them)."""
-    from h2h_racing.lifeline import die_with_parent
+    from h2h_racing.common.lifeline import die_with_parent
 
     die_with_parent(parent, death_signal)
     # Read by torch's OpenMP pool when torch is first imported (by make_driver, later).
@@ -272,7 +272,7 @@ def run_routes(tasks: Sequence[RouteTask], jobs: int,
         for index, task in enumerate(tasks):
             record(index, evaluate_route(task))
         return [r for r in results if r is not None]
-    from h2h_racing.lifeline import started_from_main_thread
+    from h2h_racing.common.lifeline import started_from_main_thread
 
     workers = min(jobs, len(tasks))
     cores = default_jobs(10**6)

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from h2h_racing.progress import Mode, Progress
+from h2h_racing.common.progress import Mode, Progress
 from h2h_racing.training.evaluate_routes import (RouteFailure, RouteLaps, RouteRaces,
                                                  RouteResult, RouteTask,
                                                  finite_or_none, run_routes)
@@ -287,7 +287,7 @@ def evaluate_routes_command(items: Sequence[str], policy: str, *,
         baseline: ``--baseline``: its first driver is compared with (time trial); '' none.
         jobs: Worker processes; None: ``default_jobs``.
         json_path: Where to write the figures (checked before anything runs).
-        progress: The progress line's mode (``h2h_racing.progress``).
+        progress: The progress line's mode (``h2h_racing.common.progress``).
 
     Raises:
         ValueError: For a bad setting, policy, baseline, ``--json`` path or ``--track`` name,

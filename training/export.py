@@ -169,9 +169,9 @@ def _samples(driver: Any, payload: dict[str, Any], samples: int, seed: int,
     ``object_avoidance`` (so the opponent and obstacle features vary too), and drive random
     actions for a few steps between samples (speeds, offsets and headings vary).
     """
-    from h2h_racing.config import EnvConfig
-    from h2h_racing.core import RaceCore
-    from h2h_racing.track_io import catalogue, load_track
+    from h2h_racing.config.env import EnvConfig
+    from h2h_racing.sim.core import RaceCore
+    from h2h_racing.track.io import catalogue, load_track
 
     trained = payload["env_config"]
     track = trained["track"] if trained["track"] in catalogue() else "speedway"

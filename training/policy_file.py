@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl imports GitPython
 
-from h2h_racing.extras import missing_extra  # noqa: E402
+from h2h_racing.common.extras import missing_extra  # noqa: E402
 
 try:
     import torch  # noqa: E402

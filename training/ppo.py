@@ -11,7 +11,7 @@ from typing import Any
 
 os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl imports GitPython
 
-from h2h_racing.extras import missing_extra  # noqa: E402
+from h2h_racing.common.extras import missing_extra  # noqa: E402
 
 try:
     import torch  # noqa: E402

@@ -16,8 +16,8 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from h2h_racing.config import MAX_BOTS, RACE_TYPES
-from h2h_racing.config_checks import _check, _is_int, _is_number
+from h2h_racing.config.env import MAX_BOTS, RACE_TYPES
+from h2h_racing.config.checks import _check, _is_int, _is_number
 
 MAX_BOXES = 32
 """Most boxes per env copy (``EnvConfig.num_obstacles``' bound)."""

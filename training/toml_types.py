@@ -18,7 +18,7 @@ import typing
 from pathlib import Path
 from typing import Any, Literal
 
-from h2h_racing.json_files import MAX_JSON_DEPTH, check_depth
+from h2h_racing.common.json_files import MAX_JSON_DEPTH, check_depth
 
 _NAMES = {int: "an integer", float: "a number", str: "a string", bool: "true or false"}
 _PLURALS = {int: "integers", float: "numbers", str: "strings", bool: "true/false values"}

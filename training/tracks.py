@@ -10,9 +10,9 @@ from typing import Any
 
 import numpy as np
 
-from h2h_racing.track import Track
-from h2h_racing.track_gen import random_track
-from h2h_racing.track_gen_circuit import random_circuit
+from h2h_racing.track.shape import Track
+from h2h_racing.track.generator import random_track
+from h2h_racing.track.circuits import random_circuit
 
 
 def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,

@@ -23,7 +23,7 @@ from typing import Any
 
 os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl imports GitPython
 
-from h2h_racing.extras import missing_extra  # noqa: E402
+from h2h_racing.common.extras import missing_extra  # noqa: E402
 
 try:
     import torch  # noqa: E402
@@ -44,7 +44,7 @@ from h2h_racing.training.run_folder import RunFolderError, check_out, checkpoint
 from h2h_racing.training.teachers import load_teacher  # noqa: E402
 from h2h_racing.training.train_progress import (  # noqa: E402
     Budget, IterationHook, StopTraining, TrainDisplay, quiet)
-from h2h_racing.progress import Mode  # noqa: E402
+from h2h_racing.common.progress import Mode  # noqa: E402
 
 
 def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
@@ -209,7 +209,7 @@ def reward_terms(config: TrainConfig) -> tuple[str, ...]:
     with a non-zero weight, or the DeepRacer reward file's one (``training.curves``)."""
     import dataclasses
 
-    from h2h_racing.rewards import TERMS
+    from h2h_racing.sim.rewards import TERMS
 
     if config.reward_function is not None:
         return (REWARD_FUNCTION_TERM,)

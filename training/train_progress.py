@@ -9,7 +9,7 @@ the hook builds its ``Iteration`` figures and hands them to its listeners (the c
 (``training.interrupt.StopRequest``) or the time budget (``Budget``). A stop inside one of
 ``train``'s ``learn()`` calls raises ``StopTraining`` there, after a whole iteration.
 
-``TrainDisplay`` shows one progress line (``h2h_racing.progress``) instead of rsl-rl's block
+``TrainDisplay`` shows one progress line (``h2h_racing.common.progress``) instead of rsl-rl's block
 of about 40 lines per iteration, or rsl-rl's block with the run's totals (``verbose``): the
 loop runs rsl-rl's calls in ``quiet``, which sends its prints nowhere. ``train`` calls
 ``learn()`` in chunks (track changes, evaluations), and rsl-rl counts each chunk as its own
@@ -28,7 +28,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, TextIO
 
-from h2h_racing.progress import NO_ETA, Mode, Progress, clock
+from h2h_racing.common.progress import NO_ETA, Mode, Progress, clock
 
 
 def _now() -> float:

@@ -51,7 +51,7 @@ import numpy.typing as npt
 
 os.environ.setdefault("GIT_PYTHON_REFRESH", "quiet")  # rsl-rl imports GitPython
 
-from h2h_racing.extras import missing_extra  # noqa: E402
+from h2h_racing.common.extras import missing_extra  # noqa: E402
 
 try:
     import torch  # noqa: E402
@@ -60,15 +60,15 @@ try:
 except ImportError as _error:
     raise missing_extra("train", "training", _error) from None
 
-from h2h_racing import rewards  # noqa: E402
-from h2h_racing.config import EnvConfig  # noqa: E402
-from h2h_racing.core import RaceCore  # noqa: E402
+from h2h_racing.sim import rewards  # noqa: E402
+from h2h_racing.config.env import EnvConfig  # noqa: E402
+from h2h_racing.sim.core import RaceCore  # noqa: E402
 from h2h_racing.deepracer.metadata import nearest_discrete  # noqa: E402
-from h2h_racing.race import TIME_EPS  # noqa: E402
+from h2h_racing.sim.race import TIME_EPS  # noqa: E402
 from h2h_racing.sensors.camera import CameraSensor  # noqa: E402
 from h2h_racing.sensors.lidar import LidarSensor  # noqa: E402
-from h2h_racing.track import Track  # noqa: E402
-from h2h_racing.track_io import load_track  # noqa: E402
+from h2h_racing.track.shape import Track  # noqa: E402
+from h2h_racing.track.io import load_track  # noqa: E402
 from h2h_racing.training.vec_env_drivers import PoolOpponent, TrackDrivers  # noqa: E402
 from h2h_racing.training.vec_env_observe import (  # noqa: E402
     ACTOR_GROUPS,

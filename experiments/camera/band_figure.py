@@ -16,8 +16,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from h2h_racing.config import EnvConfig
-from h2h_racing.env import RacingEnv
+from h2h_racing.config.env import EnvConfig
+from h2h_racing.envs.parallel import RacingEnv
 from h2h_racing.policies import make_driver
 
 SCALE = 4

@@ -16,8 +16,8 @@ import math
 import cv2
 import numpy as np
 
-from h2h_racing.config import RaceRules
-from h2h_racing.env import RacingEnv
+from h2h_racing.config.env import RaceRules
+from h2h_racing.envs.parallel import RacingEnv
 from h2h_racing.policies import make_driver
 
 SCALE = 8

@@ -18,7 +18,7 @@ import numpy as np
 
 import h2h_racing.sensors.camera as camera
 from h2h_racing.policies import make_driver
-from h2h_racing.track_io import load_track
+from h2h_racing.track.io import load_track
 from h2h_racing.training.evaluate import evaluate
 from speed_capped import SpeedCapped  # beside this script
 

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from h2h_racing.policies import make_driver
-from h2h_racing.track_io import list_tracks
+from h2h_racing.track.io import list_tracks
 from h2h_racing.training.evaluate_field import combine_fields, field_race
 
 SECOND_SLOT = slice(23, 27)

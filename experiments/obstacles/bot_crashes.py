@@ -20,7 +20,7 @@ import numpy as np
 from evaluate_races import ROUTES, SEEDS, parse_driver  # type: ignore[import-not-found]
 from h2h_racing.match import run_race
 from h2h_racing.policies import make_driver
-from h2h_racing.track_io import list_tracks
+from h2h_racing.track.io import list_tracks
 
 BEFORE = 3
 """Steps before the crash whose state is shown."""

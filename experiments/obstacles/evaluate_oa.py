@@ -9,7 +9,7 @@ randomised places (seeds 1-3), and one time trial (seed 0) for the lap time.
 import sys
 
 from h2h_racing.match import run_race
-from h2h_racing.track_io import list_tracks
+from h2h_racing.track.io import list_tracks
 
 SEEDS = (1, 2, 3)
 

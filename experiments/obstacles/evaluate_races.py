@@ -36,7 +36,7 @@ import numpy as np
 
 from h2h_racing.match import run_race
 from h2h_racing.policies import make_driver
-from h2h_racing.track_io import list_tracks
+from h2h_racing.track.io import list_tracks
 
 SEEDS = (1, 2, 3)
 ROUTES = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "deepracer_tracks"

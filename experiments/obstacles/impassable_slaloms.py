@@ -22,9 +22,9 @@ import sys
 
 import numpy as np
 
-from h2h_racing import spawn
-from h2h_racing.config import EnvConfig
-from h2h_racing.track_io import list_tracks, load_track
+from h2h_racing.sim import layouts as spawn
+from h2h_racing.config.env import EnvConfig
+from h2h_racing.track.io import list_tracks, load_track
 
 LAYOUTS = 4000
 EDGE = 0.03

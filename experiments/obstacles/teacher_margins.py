@@ -21,7 +21,7 @@ import numpy as np
 
 from h2h_racing.match import run_race
 from h2h_racing.policies import make_driver
-from h2h_racing.track_io import list_tracks
+from h2h_racing.track.io import list_tracks
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from evaluate_races import ROUTES, SEEDS  # type: ignore[import-not-found]  # noqa: E402

@@ -37,7 +37,7 @@ OPPONENTS = ("racing_line", "blocker", "pure_pursuit")
 
 def _batch(track: str, drivers: list, slots: np.ndarray, seed: int):
     """Race ``drivers`` (car i is drivers[i]) once per row of ``slots``; returns the core."""
-    from h2h_racing.track_io import load_track
+    from h2h_racing.track.io import load_track
     from h2h_racing.training.evaluate import race_batch
 
     loaded = load_track(track)
@@ -48,7 +48,7 @@ def _batch(track: str, drivers: list, slots: np.ndarray, seed: int):
 def measure(track: str, races: int, seed: int, spec: str) -> dict:
     """Every figure of one track (see the module docstring)."""
     from h2h_racing.policies import make_driver, reference_lap_time
-    from h2h_racing.track_io import load_track
+    from h2h_racing.track.io import load_track
     from h2h_racing.training.evaluate import evaluate
 
     out: dict = {"track": track, "races": races}
@@ -80,7 +80,7 @@ def measure(track: str, races: int, seed: int, spec: str) -> dict:
                                  "crashes": int(core.crashes[:, 0].sum()),
                                  "off": int(core.off_tracks[:, 0].sum())}
     loaded = load_track(track)
-    from h2h_racing.config import EnvConfig
+    from h2h_racing.config.env import EnvConfig
 
     config = EnvConfig()
     alone = evaluate(make_driver(spec), track, episodes=races, seed=seed)
@@ -110,7 +110,7 @@ def main(argv: list[str] | None = None) -> int:
                              "(default: all)")
     parser.add_argument("--workers", type=int, default=2, help="processes (default: 2)")
     args = parser.parse_args(argv)
-    from h2h_racing.track_io import list_tracks
+    from h2h_racing.track.io import list_tracks
 
     tracks = [] if args.tracks == "routes" else list(list_tracks())
     if args.tracks != "shipped":

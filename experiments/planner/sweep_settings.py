@@ -16,7 +16,7 @@ import numpy as np
 
 from h2h_racing.policies import make_driver
 from h2h_racing.policies.planner import Planner
-from h2h_racing.track_io import list_tracks, load_track
+from h2h_racing.track.io import list_tracks, load_track
 from h2h_racing.training.evaluate import grid_slots, race_batch
 
 OPPONENTS = ("racing_line", "blocker", "pure_pursuit")

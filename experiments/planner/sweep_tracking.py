@@ -21,11 +21,11 @@ import time
 
 import numpy as np
 
-from h2h_racing.config import EnvConfig
+from h2h_racing.config.env import EnvConfig
 from h2h_racing.policies import tracking
 from h2h_racing.policies.planner import Planner
 from h2h_racing.policies.racing_line import reference_lap_time
-from h2h_racing.track_io import list_tracks, load_track
+from h2h_racing.track.io import list_tracks, load_track
 from h2h_racing.training.evaluate import race_batch
 from h2h_racing.training.tracks import random_training_track
 

@@ -88,13 +88,13 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from h2h_racing.config import EnvConfig
+from h2h_racing.config.env import EnvConfig
 from h2h_racing.deepracer.params import ParamsBuilder
-from h2h_racing.json_files import read_json_file
-from h2h_racing.track import Track
+from h2h_racing.common.json_files import read_json_file
+from h2h_racing.track.shape import Track
 
 if TYPE_CHECKING:
-    from h2h_racing.core import RaceCore, StepEvents
+    from h2h_racing.sim.core import RaceCore, StepEvents
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]

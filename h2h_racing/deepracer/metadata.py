@@ -24,8 +24,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from h2h_racing.config import CameraConfig, LidarConfig
-from h2h_racing.json_files import read_json_file, short_repr
+from h2h_racing.config.env import CameraConfig, LidarConfig
+from h2h_racing.common.json_files import read_json_file, short_repr
 
 FloatArrayLike = npt.NDArray[np.float64]
 

@@ -7,7 +7,7 @@ docs where the two differ:
   (``agent_ctrl/constants.py RELATIVE_POSITION_OF_FRONT_OF_CAR``);
 - the centre line C is the polyline through ``track.waypoints`` in driving order (every row,
   duplicates, near-duplicates, tiny backtracks and the closing row included, even where the
-  track's geometry leaves such slips out: ``h2h_racing.track_io.route_geometry_rows``; so
+  track's geometry leaves such slips out: ``h2h_racing.track.io.route_geometry_rows``; so
   ``closest_waypoints`` are the route file's row indices), projected on as Shapely's ``project`` /
   ``interpolate`` do (the nearest point of the polyline; on ties the earlier segment wins);
 - ``progress`` is relative to where the episode started, with the +-50 wrap rule and a cap at
@@ -37,7 +37,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from h2h_racing.config import CarParams
+from h2h_racing.config.env import CarParams
 from h2h_racing.deepracer.params_geometry import (
     _car_kernel,
     _in_camera,
@@ -45,10 +45,10 @@ from h2h_racing.deepracer.params_geometry import (
     _Polyline,
     _project_points,
 )
-from h2h_racing.track import Track
+from h2h_racing.track.shape import Track
 
 if TYPE_CHECKING:
-    from h2h_racing.core import RaceCore
+    from h2h_racing.sim.core import RaceCore
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]

@@ -50,7 +50,7 @@ import numpy as np
 import numpy.typing as npt
 from gymnasium import spaces
 
-from h2h_racing.config import CameraConfig
+from h2h_racing.config.env import CameraConfig
 from h2h_racing.sensors.camera_kernels import (
     FACE_FACTORS,  # re-exported: the shades of a box's faces, which tests and users check
     FACES_PER_BOX,
@@ -59,12 +59,12 @@ from h2h_racing.sensors.camera_kernels import (
     box_faces_kernel,
     ground_maps_kernel,
 )
-from h2h_racing.track import Track
-from h2h_racing.track_lookup import MAX_SAMPLES
+from h2h_racing.track.shape import Track
+from h2h_racing.track.lookup import MAX_SAMPLES
 
 if TYPE_CHECKING:
-    from h2h_racing.config import CarParams
-    from h2h_racing.core import RaceCore
+    from h2h_racing.config.env import CarParams
+    from h2h_racing.sim.core import RaceCore
 
 UInt8Array = npt.NDArray[np.uint8]
 FloatArray = npt.NDArray[np.float64]

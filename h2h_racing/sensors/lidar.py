@@ -38,11 +38,11 @@ import numpy.typing as npt
 from gymnasium import spaces
 from numba import njit
 
-from h2h_racing.config import LidarConfig
+from h2h_racing.config.env import LidarConfig
 
 if TYPE_CHECKING:
-    from h2h_racing.config import CarParams
-    from h2h_racing.core import RaceCore
+    from h2h_racing.config.env import CarParams
+    from h2h_racing.sim.core import RaceCore
 
 FloatArray = npt.NDArray[np.float64]
 Float32Array = npt.NDArray[np.float32]

@@ -41,11 +41,11 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-from h2h_racing import track_tables as tt
-from h2h_racing.track_lookup import lookup_span, wrap_angle, wrap_arc
+from h2h_racing.track import tables as tt
+from h2h_racing.track.lookup import lookup_span, wrap_angle, wrap_arc
 
 if TYPE_CHECKING:
-    from h2h_racing.core import RaceCore
+    from h2h_racing.sim.core import RaceCore
 
 OBS_BOUND = 5.0
 """Every feature is clipped to [-OBS_BOUND, OBS_BOUND]."""

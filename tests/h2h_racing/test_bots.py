@@ -14,9 +14,9 @@ import pytest
 from pettingzoo.test import parallel_api_test
 
 import h2h_racing
-from h2h_racing import bots, race, spawn
-from h2h_racing.config import CarParams, EnvConfig, RaceRules
-from h2h_racing.core import RaceCore
+from h2h_racing.sim import bots, race, layouts as spawn
+from h2h_racing.config.env import CarParams, EnvConfig, RaceRules
+from h2h_racing.sim.core import RaceCore
 from h2h_racing.sensors.camera import BOT_SHADE, CAR_SHADES, FACE_FACTORS, CameraSensor
 from h2h_racing.sensors.lidar import LidarSensor
 from h2h_racing.sensors.state import state_observation
@@ -475,7 +475,7 @@ class TestEnv:
         without = h2h_racing.parallel_env(track="oval", render_mode="rgb_array")
         with_bots.reset(seed=0)
         without.reset(seed=0)
-        from h2h_racing.render import BOT
+        from h2h_racing.viz.render import BOT
 
         frame = with_bots.render()
         assert np.all(frame == np.array(BOT), axis=-1).sum() > 20

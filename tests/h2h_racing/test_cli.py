@@ -1,4 +1,4 @@
-"""The h2h-racing command line, run in-process through ``h2h_racing.cli.main``."""
+"""The h2h-racing command line, run in-process through ``h2h_racing.cli.command.main``."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import cv2
 import numpy as np
 import pytest
 
-from h2h_racing.cli import main
-from h2h_racing.track_io import list_tracks, load_track
+from h2h_racing.cli.command import main
+from h2h_racing.track.io import list_tracks, load_track
 
 
 class TestTracksCommands:
@@ -41,7 +41,7 @@ class TestTracksCommands:
 
     def test_tracks_of_a_folder_and_a_file(self, tmp_path: Path,
                                            capsys: pytest.CaptureFixture[str]) -> None:
-        from h2h_racing.track_io import save_track
+        from h2h_racing.track.io import save_track
 
         folder = tmp_path / "mine"
         folder.mkdir()

@@ -7,8 +7,8 @@ import re
 
 import pytest
 
-from h2h_racing.cli import build_parser
-from h2h_racing.cli_help import HelpFormatter, walk_parsers
+from h2h_racing.cli.command import build_parser
+from h2h_racing.cli.help import HelpFormatter, walk_parsers
 
 PARSERS = walk_parsers(build_parser())
 
@@ -64,7 +64,7 @@ def test_train_options_state_the_defaults_train_uses() -> None:
     """Passing the default a ``train`` option's help names changes nothing: the help of options
     that default to the config file's value (None here) tells the truth."""
     pytest.importorskip("torch")
-    from h2h_racing.cli_training import _train_config
+    from h2h_racing.training.cli import _train_config
 
     parser = build_parser()
     base = _train_config(parser.parse_args(["train", "--out", "x"]))
@@ -85,7 +85,7 @@ def test_train_options_state_the_defaults_train_uses() -> None:
 
 
 def test_the_drivers_help_names_every_shipped_driver() -> None:
-    from h2h_racing.cli_help import DRIVERS_HELP
+    from h2h_racing.cli.help import DRIVERS_HELP
     from h2h_racing.policies import DRIVERS
     from h2h_racing.policies.trained import shipped_policies
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from h2h_racing.configs import resolve_config, shipped_configs
+from h2h_racing.config.shipped import resolve_config, shipped_configs
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -72,7 +72,7 @@ def test_unknown_names_list_the_shipped_ones() -> None:
 
 def test_the_cli_names_the_shipped_configs() -> None:
     pytest.importorskip("torch")
-    from h2h_racing.cli import main
+    from h2h_racing.cli.command import main
 
     with pytest.raises(SystemExit, match="shipped: recommended, smoke"):
         main(["league", "train", "--config", "no_such_league"])
@@ -84,7 +84,7 @@ def test_the_cli_names_the_shipped_configs() -> None:
 def test_league_train_seed_overrides_the_config_and_names_its_own_folder(monkeypatch,
                                                                          tmp_path) -> None:
     pytest.importorskip("torch")
-    from h2h_racing.cli import main
+    from h2h_racing.cli.command import main
     from h2h_racing.league import selfplay
 
     made = []

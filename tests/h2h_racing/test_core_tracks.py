@@ -16,15 +16,15 @@ import math
 import numpy as np
 import pytest
 
-from h2h_racing import rewards
-from h2h_racing.config import EnvConfig, RaceRules
-from h2h_racing.core import ENV_GAP, RaceCore
-from h2h_racing.core_view import BLOCKS, PER_COPY, CoreView
-from h2h_racing.physics import HASH_MIN_BODIES
+from h2h_racing.sim import rewards
+from h2h_racing.config.env import EnvConfig, RaceRules
+from h2h_racing.sim.core import ENV_GAP, RaceCore
+from h2h_racing.sim.view import BLOCKS, PER_COPY, CoreView
+from h2h_racing.sim.physics import HASH_MIN_BODIES
 from h2h_racing.sensors.camera import CameraSensor
 from h2h_racing.sensors.lidar import LidarSensor
 from h2h_racing.sensors.state import state_observation
-from h2h_racing.track_io import list_tracks, load_track
+from h2h_racing.track.io import list_tracks, load_track
 
 SHIPPED = list_tracks()
 TRACKS = [load_track(name) for name in SHIPPED]

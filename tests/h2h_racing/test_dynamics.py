@@ -1,4 +1,4 @@
-"""Tests for :mod:`h2h_racing.dynamics`: the single-track model against hand-derived values."""
+"""Tests for :mod:`h2h_racing.sim.dynamics`: the single-track model against hand-derived values."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from h2h_racing.config import CarParams
-from h2h_racing.dynamics import GRAVITY, SingleTrackModel
+from h2h_racing.config.env import CarParams
+from h2h_racing.sim.dynamics import GRAVITY, SingleTrackModel
 
 DT = 1.0 / 15.0
 CAR = CarParams()

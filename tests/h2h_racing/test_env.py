@@ -1,4 +1,4 @@
-"""Tests for :mod:`h2h_racing.env`: PettingZoo conformance, determinism, pickling, seat fairness,
+"""Tests for :mod:`h2h_racing.envs.parallel`: PettingZoo conformance, determinism, pickling, seat fairness,
 input validation, spaces/dtypes/infos and rendering."""
 
 from __future__ import annotations
@@ -14,9 +14,9 @@ from pettingzoo.test import api_test, max_cycles_test, parallel_api_test, render
 from pettingzoo.utils.conversions import parallel_to_aec
 
 import h2h_racing
-from h2h_racing.config import EnvConfig, RaceRules, RewardConfig
+from h2h_racing.config.env import EnvConfig, RaceRules, RewardConfig
 from h2h_racing.policies import make_driver
-from h2h_racing.track_io import list_tracks
+from h2h_racing.track.io import list_tracks
 
 from conftest import circle_track
 
@@ -805,7 +805,7 @@ class TestTrainerConventions:
     def test_rewards_and_terms_match_the_reward_module(self, make_env: Any) -> None:
         # The env computes rewards and info terms in one compiled call; rewards.reward_terms
         # (what the batched VecEnv uses) is the reference.
-        from h2h_racing import rewards
+        from h2h_racing.sim import rewards
 
         env = make_env(num_cars=3, reward=RewardConfig(speed=0.1, time=-0.01, contact=-1.0))
         env.reset(seed=3)

@@ -11,10 +11,10 @@ import zlib
 import numpy as np
 import pytest
 
-from h2h_racing.config import EnvConfig, RaceRules
-from h2h_racing.core import RaceCore
+from h2h_racing.config.env import EnvConfig, RaceRules
+from h2h_racing.sim.core import RaceCore
 from h2h_racing.sensors.state import OBS_BOUND, state_observation
-from h2h_racing.track_io import load_track
+from h2h_racing.track.io import load_track
 
 from conftest import box_corners, box_penetration
 

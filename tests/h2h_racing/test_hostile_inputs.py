@@ -8,10 +8,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from h2h_racing import spawn
-from h2h_racing.config import EnvConfig, RaceRules
-from h2h_racing.core import RaceCore
-from h2h_racing.track_io import load_track
+from h2h_racing.sim import layouts as spawn
+from h2h_racing.config.env import EnvConfig, RaceRules
+from h2h_racing.sim.core import RaceCore
+from h2h_racing.track.io import load_track
 
 from conftest import box_corners, box_penetration
 
@@ -121,7 +121,7 @@ def test_cars_replaced_in_the_same_step_avoid_each_other() -> None:
 def test_car_with_no_clear_spot_stays_frozen_until_one_clears() -> None:
     # A box stands on every candidate spot of car 0; before the fix car 0 took the last
     # candidate and landed on a box.
-    from h2h_racing.replacement import REPLACE_STEP, REPLACE_TRIES
+    from h2h_racing.sim.replacement import REPLACE_STEP, REPLACE_TRIES
 
     core = frozen_core(2, num_obstacles=2 * REPLACE_TRIES)
     track = core.track
@@ -163,9 +163,9 @@ HUGE_TRACK_CHILD = r"""
 import json, resource, sys, tracemalloc
 import numpy as np
 import h2h_racing
-from h2h_racing.render import SpectatorRenderer
-from h2h_racing.track_io import load_track
-from h2h_racing.track_lookup import TrackLookup
+from h2h_racing.viz.render import SpectatorRenderer
+from h2h_racing.track.io import load_track
+from h2h_racing.track.lookup import TrackLookup
 
 path = sys.argv[1]
 # A DeepRacer route written in millimetres: a circle of radius 1e6 (m, as read), 1,000 wide.
@@ -209,7 +209,7 @@ def test_projection_grid_builds_in_small_chunks() -> None:
     # Projector.build took ~140 MiB at its peak for a shipped track (every process's peak).
     import tracemalloc
 
-    from h2h_racing.track import Projector
+    from h2h_racing.track.shape import Projector
 
     track = load_track("speedway")
     tracemalloc.start()
@@ -292,7 +292,7 @@ def test_train_toml_names_the_key_of_a_value_of_the_wrong_type(tmp_path) -> None
 
 
 def test_train_command_names_the_key_of_a_value_of_the_wrong_type(tmp_path, capsys) -> None:
-    from h2h_racing.cli import main
+    from h2h_racing.cli.command import main
 
     path = write(tmp_path, "t.toml", "num_steps_per_env = [32]\n")
     assert main(["train", "--out", str(tmp_path / "run"), "--config", str(path)]) == 2
@@ -361,7 +361,7 @@ def test_observation_slots_are_bounded(field: str, value: int, allowed: str) -> 
 def test_camera_values_of_all_cars_are_bounded() -> None:
     # Each field is in range; together 16 cars of 4096 x 4096 stereo with 32 frames asked for 8 GiB of
     # observation bounds before anything failed.
-    from h2h_racing.config_sensors import CameraConfig
+    from h2h_racing.config.sensors import CameraConfig
 
     camera = CameraConfig(width=4096, height=4096, stereo=True, frame_stack=32)
     with pytest.raises(ValueError, match=r"EnvConfig\.camera must be at most 67108864 camera values a step "

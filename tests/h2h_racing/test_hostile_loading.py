@@ -21,7 +21,7 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from h2h_racing.cli import main  # noqa: E402
+from h2h_racing.cli.command import main  # noqa: E402
 from h2h_racing.deepracer import DeepRacerReward, RewardFunctionError  # noqa: E402
 from h2h_racing.policies.trained import (  # noqa: E402
     POLICY_FORMAT,
@@ -462,7 +462,7 @@ class TestMissingExtras:
     def test_without_torch(self, tmp_path: Path, argv: list[str]) -> None:
         argv = [a.format(policy=_state_policy(), out=tmp_path / "run") for a in argv]
         # None in sys.modules makes `import torch` fail as if it were not installed.
-        code = ("import sys; sys.modules['torch'] = None; from h2h_racing.cli import main; "
+        code = ("import sys; sys.modules['torch'] = None; from h2h_racing.cli.command import main; "
                 f"sys.exit(main({argv!r}))")
         done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                               cwd=tmp_path, timeout=120)
@@ -471,7 +471,7 @@ class TestMissingExtras:
         assert "torch is missing" in done.stderr and "Traceback" not in done.stderr
 
     def test_one_message_for_every_extra(self) -> None:
-        from h2h_racing.extras import install_hint, missing_extra
+        from h2h_racing.common.extras import install_hint, missing_extra
 
         error = missing_extra("league", "league plots", ImportError("x", name="matplotlib"))
         assert str(error) == ('league plots needs the optional matplotlib package(s), which are '

@@ -114,7 +114,7 @@ WATCHED_CHILD_PARENT = """
     import os, subprocess, sys, time
 
     child = subprocess.Popen([sys.executable, "-c", (
-        "import time; from h2h_racing.lifeline import die_with_parent; "
+        "import time; from h2h_racing.common.lifeline import die_with_parent; "
         "die_with_parent(%d, death_signal=False); print('armed', flush=True); time.sleep(600)"
     ) % os.getpid()], stdout=subprocess.PIPE, text=True)
     child.stdout.readline()
@@ -260,7 +260,7 @@ def _free_ports(count: int) -> list[int]:
 @pytest.mark.parametrize("busy", ["--web-port", "--grpc-port"])
 def test_race_serve_on_a_taken_port_fails_before_racing(busy, capsys):
     pytest.importorskip("rerun")
-    from h2h_racing.cli import main
+    from h2h_racing.cli.command import main
 
     web, grpc = _free_ports(2)
     holder = socket.socket()
@@ -284,7 +284,7 @@ def test_race_serve_on_a_taken_port_fails_before_racing(busy, capsys):
 SERVE_PARENT = """
     import sys
     import h2h_racing
-    from h2h_racing.viz import RaceRecorder
+    from h2h_racing.viz.recorder import RaceRecorder
 
     web, grpc = int(sys.argv[1]), int(sys.argv[2])
     env = h2h_racing.parallel_env(track="oval", num_cars=1)
@@ -298,7 +298,7 @@ def test_the_viewer_server_dies_with_a_killed_race(tmp_path):
     pytest.importorskip("rerun")
     if not sys.platform.startswith("linux"):
         pytest.skip("the viewer server dies with its parent on Linux only (PR_SET_PDEATHSIG)")
-    from h2h_racing.viz import check_ports_free
+    from h2h_racing.viz.recorder import check_ports_free
 
     web, grpc = _free_ports(2)
     path = tmp_path / "parent.py"
@@ -320,7 +320,7 @@ def test_the_viewer_server_dies_with_a_killed_race(tmp_path):
 # ------------------------------------------------------------ league files and tournaments
 
 def _league_cli(argv: list[str], capsys) -> tuple[int, str, str]:
-    from h2h_racing.cli import main
+    from h2h_racing.cli.command import main
 
     code = main(argv)
     out, err = capsys.readouterr()
@@ -360,7 +360,7 @@ def test_a_tournament_track_edited_between_runs_is_an_error(tmp_path):
 
     from h2h_racing.league.store import LeagueStore
     from h2h_racing.league.tournament import TournamentConfig, run_tournament
-    from h2h_racing.track_io import load_track, save_track
+    from h2h_racing.track.io import load_track, save_track
 
     track_file = tmp_path / "mine.json"
     oval = load_track("oval")
@@ -515,7 +515,7 @@ def test_a_corrupt_league_file_gives_one_clear_line(tmp_path, capsys, content, c
 _CLI = """
 import sys, time
 {patch}
-from h2h_racing.cli import main
+from h2h_racing.cli.command import main
 sys.exit(main({argv!r}))
 """
 SLOW_COUNT = """
@@ -625,7 +625,7 @@ def _no_display_env() -> dict[str, str]:
 def test_race_spawn_without_a_display_fails_at_once(tmp_path):
     """Before: `race --spawn` with no display hung until killed."""
     pytest.importorskip("rerun")
-    code = "import sys; from h2h_racing.cli import main; sys.exit(main(['race', '--track', 'oval', '--spawn']))"
+    code = "import sys; from h2h_racing.cli.command import main; sys.exit(main(['race', '--track', 'oval', '--spawn']))"
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
                             env=_no_display_env(), cwd=tmp_path)
     assert result.returncode == 2, result.stderr
@@ -635,7 +635,7 @@ def test_race_spawn_without_a_display_fails_at_once(tmp_path):
 SPAWN_COMMAND = """
 import os, sys
 os.environ["DISPLAY"] = ":99"
-import h2h_racing, h2h_racing.viz_server as vs
+import h2h_racing, h2h_racing.viz.server as vs
 class FakeViewer:
     returncode = None
     def poll(self): return None
@@ -644,7 +644,7 @@ def fake_popen(command, **kwargs):
     return FakeViewer()
 vs.subprocess.Popen = fake_popen
 vs._wait_for_port = lambda port, process, timeout: None
-from h2h_racing.viz import RaceRecorder
+from h2h_racing.viz.recorder import RaceRecorder
 RaceRecorder(h2h_racing.parallel_env(track="oval"), spawn=True, grpc_port={port})
 """
 

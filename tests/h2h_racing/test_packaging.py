@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from h2h_racing.track_io import list_tracks
+from h2h_racing.track.io import list_tracks
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -83,13 +83,13 @@ class TestLayers:
         sources = sorted((REPO / "h2h_racing").rglob("*.py"))
         importers = [p.relative_to(REPO).as_posix() for p in sources
                      if "import pymunk" in p.read_text()]
-        assert importers == ["h2h_racing/physics.py"]
+        assert importers == ["h2h_racing/sim/physics.py"]
 
     def test_only_env_imports_pettingzoo(self) -> None:
         sources = sorted((REPO / "h2h_racing").rglob("*.py"))
         importers = [p.relative_to(REPO).as_posix() for p in sources
                      if "from pettingzoo" in p.read_text() or "import pettingzoo" in p.read_text()]
-        assert importers == ["h2h_racing/env.py"]
+        assert importers == ["h2h_racing/envs/parallel.py"]
 
     def test_env_never_imports_torch_or_rerun(self) -> None:
         code = ("import sys, h2h_racing; h2h_racing.parallel_env(track='oval').reset(seed=0); "

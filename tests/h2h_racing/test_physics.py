@@ -1,12 +1,12 @@
-"""Tests for :mod:`h2h_racing.physics`: contacts never tunnel and leave no deep overlap."""
+"""Tests for :mod:`h2h_racing.sim.physics`: contacts never tunnel and leave no deep overlap."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from h2h_racing.config import CarParams
-from h2h_racing.physics import PhysicsWorld
+from h2h_racing.config.env import CarParams
+from h2h_racing.sim.physics import PhysicsWorld
 
 from conftest import box_corners, box_penetration
 

@@ -7,8 +7,8 @@ import io
 
 import pytest
 
-from h2h_racing.cli import main
-from h2h_racing.progress import Progress, clock
+from h2h_racing.cli.command import main
+from h2h_racing.common.progress import Progress, clock
 
 
 class Terminal(io.StringIO):

@@ -1,4 +1,4 @@
-"""Race rules (:mod:`h2h_racing.race`, rules in :mod:`h2h_racing.core`), with hand-computed cases.
+"""Race rules (:mod:`h2h_racing.sim.race`, rules in :mod:`h2h_racing.sim.core`), with hand-computed cases.
 
 Most cases run one or two cars on a 3 m radius circle (L = 400 * 6 sin(pi/400) = 18.8494 m).
 """
@@ -12,11 +12,11 @@ from typing import Any
 import numpy as np
 import pytest
 
-from h2h_racing import race
-from h2h_racing.config import EnvConfig, RaceRules
-from h2h_racing.core import RaceCore
+from h2h_racing.sim import race
+from h2h_racing.config.env import EnvConfig, RaceRules
+from h2h_racing.sim.core import RaceCore
 from h2h_racing.policies import make_driver
-from h2h_racing.results import format_results, race_results
+from h2h_racing.envs.results import format_results, race_results
 
 from conftest import circle_track
 
@@ -373,8 +373,8 @@ class TestCrashJudging:
         assert core.crashes[0].tolist() == [0, 1] and core.collisions[0].tolist() == [1, 1]
 
     def test_rear_end_rewards_crash_and_contact(self) -> None:
-        from h2h_racing import rewards
-        from h2h_racing.config import RewardConfig
+        from h2h_racing.sim import rewards
+        from h2h_racing.config.env import RewardConfig
 
         core, found = self._rear_end()
         weights = rewards.weights_of(RewardConfig(crash=-5.0, contact=-2.0))

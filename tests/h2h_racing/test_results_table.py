@@ -10,8 +10,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from h2h_racing.config import RaceRules
-from h2h_racing.results import format_results, race_results
+from h2h_racing.config.env import RaceRules
+from h2h_racing.envs.results import format_results, race_results
 
 INF = math.inf
 
@@ -91,7 +91,7 @@ def test_race_video_refuses_other_containers(tmp_path: Path) -> None:
 
 
 def test_cli_says_where_the_video_went(tmp_path: Path, capsys) -> None:
-    from h2h_racing.cli import main
+    from h2h_racing.cli.command import main
 
     path = tmp_path / "race.webm"
     assert main(["race", "--track", "oval", "--drivers", "racing_line", "--race-type",
@@ -119,7 +119,7 @@ def test_the_race_progress_bar_ends_on_the_final_state() -> None:
     # and the bar used to stay at the last one (46-61 % in the runs).
     import io
 
-    from h2h_racing.env import RacingEnv
+    from h2h_racing.envs.parallel import RacingEnv
     from h2h_racing.match import ProgressBar
     from h2h_racing.policies import make_driver
 

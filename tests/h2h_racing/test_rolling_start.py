@@ -8,8 +8,8 @@ import sys
 import numpy as np
 import pytest
 
-from h2h_racing.config import EnvConfig, RaceRules
-from h2h_racing.core import RaceCore
+from h2h_racing.config.env import EnvConfig, RaceRules
+from h2h_racing.sim.core import RaceCore
 
 circle_track = sys.modules["conftest"].circle_track
 
@@ -118,7 +118,7 @@ class TestRollingHeadToHead:
         assert result.rolling == 2.5 and "rolling start at 2.5 m/s" in result.summary()
 
     def test_cli_help_shows_the_default(self, capsys) -> None:
-        from h2h_racing.cli import main
+        from h2h_racing.cli.command import main
 
         with pytest.raises(SystemExit):
             main(["evaluate", "--help"])
@@ -127,7 +127,7 @@ class TestRollingHeadToHead:
         assert "0 is a standing start (default: 0.0)" in help_text
 
     def test_cli_rolling_race(self, capsys) -> None:
-        from h2h_racing.cli import main
+        from h2h_racing.cli.command import main
 
         assert main(["evaluate", "--policy", "racing_line", "--against", "pure_pursuit",
                      "--track", "oval", "--races", "1", "--laps", "1", "--start", "behind",
@@ -138,7 +138,7 @@ class TestRollingHeadToHead:
         assert row.split()[2:5] == ["1", "/", "1"]
 
     def test_cli_refuses_a_bad_speed(self, capsys) -> None:
-        from h2h_racing.cli import main
+        from h2h_racing.cli.command import main
 
         assert main(["evaluate", "--policy", "racing_line", "--against", "pure_pursuit",
                      "--track", "oval", "--races", "2", "--rolling", "9"]) == 2

@@ -1,4 +1,4 @@
-"""The single-agent Gymnasium view (h2h_racing.single_agent, "h2h_racing/Race-v0")."""
+"""The single-agent Gymnasium view (h2h_racing.envs.single_agent, "h2h_racing/Race-v0")."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from gymnasium.utils.env_checker import check_env
 
 import h2h_racing
 from h2h_racing.policies import make_driver
-from h2h_racing.single_agent import SingleAgentRaceEnv
+from h2h_racing.envs.single_agent import SingleAgentRaceEnv
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -172,7 +172,7 @@ def test_bad_render_mode_is_refused():
 def test_import_registers_without_importing_the_view():
     code = ("import sys, gymnasium, h2h_racing; "
             "print('h2h_racing/Race-v0' in gymnasium.registry, "
-            "'h2h_racing.single_agent' in sys.modules)")
+            "'h2h_racing.envs.single_agent' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.split()
     assert out == ["True", "False"]

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 import h2h_racing
-from h2h_racing import spawn
-from h2h_racing.config import EnvConfig
-from h2h_racing.track_io import load_track
+from h2h_racing.sim import layouts as spawn
+from h2h_racing.config.env import EnvConfig
+from h2h_racing.track.io import load_track
 
 DRAWS = 4000
 

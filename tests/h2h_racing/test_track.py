@@ -1,4 +1,4 @@
-"""Tests for :mod:`h2h_racing.track`: geometry, projection, Frenet round trip, validation."""
+"""Tests for :mod:`h2h_racing.track.shape`: geometry, projection, Frenet round trip, validation."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from h2h_racing.track import BLEND_HALF_WIDTH, Track
+from h2h_racing.track.shape import BLEND_HALF_WIDTH, Track
 
 R = 5.0  # circle radius [m]
 M_CIRCLE = 400  # vertices of the test circle
@@ -292,7 +292,7 @@ class TestLargeTracks:
     # An ellipse of N vertices 5 cm apart, and the same number on a figure of eight.
     SETUP = """
         import numpy as np
-        from h2h_racing.track import Track
+        from h2h_racing.track.shape import Track
         n = {n}
         t = np.linspace(0, 2 * np.pi, n, endpoint=False)
         r = n * 0.05 / (2 * np.pi)
@@ -328,7 +328,7 @@ class TestLargeTracks:
         # In a subprocess: without the bound the check would run for many minutes.
         code = """
         import numpy as np
-        from h2h_racing.track import MAX_TRACK_VERTICES, Track
+        from h2h_racing.track.shape import MAX_TRACK_VERTICES, Track
         n = MAX_TRACK_VERTICES + 1
         t = np.linspace(0, 2 * np.pi, n, endpoint=False)
         try:
@@ -341,7 +341,7 @@ class TestLargeTracks:
         assert "'huge' (<memory>): the centre line has 100001 vertices; at most 100000 are allowed" in result.stdout
 
     def test_file_size_is_bounded(self, tmp_path: pathlib.Path) -> None:
-        from h2h_racing.track_io import MAX_TRACK_FILE_BYTES, load_track
+        from h2h_racing.track.io import MAX_TRACK_FILE_BYTES, load_track
 
         path = tmp_path / "huge.csv"
         with path.open("wb") as f:

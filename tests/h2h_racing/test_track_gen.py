@@ -1,4 +1,4 @@
-"""Tests for h2h_racing.track_gen and the shipped track catalogue (tracks/*.json)."""
+"""Tests for h2h_racing.track.generator and the shipped track catalogue (tracks/*.json)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from h2h_racing.track_gen import (
+from h2h_racing.track.generator import (
     TRACK_FORMAT,
     TrackSpec,
     border_polylines,
@@ -323,7 +323,7 @@ class TestRandomTrack:
         np.testing.assert_array_equal(a.centre, b.centre)
 
     def test_chicane_is_one_swerve_out_and_back(self):
-        from h2h_racing.track_gen import _add_chicanes
+        from h2h_racing.track.generator import _add_chicanes
 
         # A 10 m circle, 1 cm vertices: one chicane moves a 2-4 m stretch sideways by
         # y = A sin(2 pi u)(1 - cos(2 pi u)) / 2, whose extremes are +-3 sqrt(3) / 8 A = +-0.6495 A

@@ -1,4 +1,4 @@
-"""Tests for h2h_racing.track_gen_circuit: kart-style circuits of tight corners."""
+"""Tests for h2h_racing.track.circuits: kart-style circuits of tight corners."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from h2h_racing.track_gen import (
+from h2h_racing.track.generator import (
     border_polylines,
     closed_length,
     curvature,
@@ -16,7 +16,7 @@ from h2h_racing.track_gen import (
     signed_area,
     smooth_closed_curve,
 )
-from h2h_racing.track_gen_circuit import (_bspline, _has_hole, _outline, _rounded, _turns,
+from h2h_racing.track.circuits import (_bspline, _has_hole, _outline, _rounded, _turns,
                                          random_circuit)
 
 ARCS_SEED_4 = "circuit-c558ed2e"

@@ -1,4 +1,4 @@
-"""Tests for :mod:`h2h_racing.track_io`: catalogue, JSON round trip, DeepRacer npy and centre-line CSV."""
+"""Tests for :mod:`h2h_racing.track.io`: catalogue, JSON round trip, DeepRacer npy and centre-line CSV."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from h2h_racing.track import Track
-from h2h_racing.track_io import (
+from h2h_racing.track.shape import Track
+from h2h_racing.track.io import (
     TRACK_FORMAT,
     catalogue,
     list_tracks,
@@ -188,7 +188,7 @@ class TestRouteSlips:
         np.testing.assert_array_equal(reverse.waypoints, rows[::-1, :2])
 
     def test_params_waypoint_indices_are_file_rows(self, tmp_path: Path) -> None:
-        from h2h_racing.config import CarParams
+        from h2h_racing.config.env import CarParams
         from h2h_racing.deepracer.params import ParamsBuilder
 
         rows = with_route_slips(ellipse_route_rows(), back_row=20, duplicate_row=45)

@@ -15,7 +15,7 @@ from torchrl.envs import PettingZooWrapper, SerialEnv  # noqa: E402
 from torchrl.envs.utils import MarlGroupMapType, check_env_specs  # noqa: E402
 
 import h2h_racing  # noqa: E402
-from h2h_racing.infos import INFO_KEYS  # noqa: E402
+from h2h_racing.envs.infos import INFO_KEYS  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -13,10 +13,10 @@ import pytest
 from pettingzoo.test import parallel_api_test
 
 import h2h_racing
-from h2h_racing.config import EnvConfig, RaceRules
-from h2h_racing.core import RaceCore
+from h2h_racing.config.env import EnvConfig, RaceRules
+from h2h_racing.sim.core import RaceCore
 from h2h_racing.policies import make_driver
-from h2h_racing.track_io import load_track
+from h2h_racing.track.io import load_track
 
 OVAL = load_track("oval")
 L = OVAL.length

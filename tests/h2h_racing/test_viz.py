@@ -1,4 +1,4 @@
-"""Rerun recordings of races (``h2h_racing.viz``), read back from the ``.rrd`` file."""
+"""Rerun recordings of races (``h2h_racing.viz.recorder``), read back from the ``.rrd`` file."""
 
 from __future__ import annotations
 
@@ -16,13 +16,13 @@ import pytest
 from h2h_racing.policies import make_driver
 
 import h2h_racing
-from h2h_racing.cli import main
-from h2h_racing.config import CameraConfig, RaceRules
+from h2h_racing.cli.command import main
+from h2h_racing.config.env import CameraConfig, RaceRules
 
 rr = pytest.importorskip("rerun", reason='needs rerun-sdk: pip install "h2h-racing[viz]"')
 psutil = pytest.importorskip("psutil")
 
-from h2h_racing import viz
+from h2h_racing.viz import recorder as viz
 
 SCRIPTED_STEPS = 240
 """Steps of the scripted race: off track at step 8, a collision at 29, a pass at 225."""
@@ -233,7 +233,7 @@ class TestOptionalDependency:
     """rerun stays optional: the env never imports it, and a missing one says what to do."""
 
     def test_env_match_and_cli_do_not_import_rerun(self) -> None:
-        code = ("import sys, h2h_racing, h2h_racing.env, h2h_racing.match, h2h_racing.cli; "
+        code = ("import sys, h2h_racing, h2h_racing.envs.parallel, h2h_racing.match, h2h_racing.cli.command; "
                 "h2h_racing.parallel_env(track='oval').reset(seed=0); "
                 "assert 'rerun' not in sys.modules, 'rerun was imported'")
         subprocess.run([sys.executable, "-c", code], check=True, timeout=120)

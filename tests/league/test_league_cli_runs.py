@@ -27,7 +27,7 @@ pytest.importorskip("torch")
 
 REPO = Path(__file__).resolve().parents[2]
 CLI = [sys.executable, "-c",
-       "import sys; from h2h_racing.cli import main; sys.exit(main(sys.argv[1:]))"]
+       "import sys; from h2h_racing.cli.command import main; sys.exit(main(sys.argv[1:]))"]
 ENV = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]),
            GIT_PYTHON_REFRESH="quiet")
 

@@ -76,7 +76,7 @@ def _league_train(tmp_path: Path, patch: str = "") -> subprocess.CompletedProces
     config.write_text(CONFIG)
     argv = ["league", "train", "--config", str(config), "--out", str(tmp_path / "league"),
             "--backend", "inprocess", "--no-progress"]
-    code = (f"import os, sys\n{textwrap.dedent(patch)}\nfrom h2h_racing.cli import main\n"
+    code = (f"import os, sys\n{textwrap.dedent(patch)}\nfrom h2h_racing.cli.command import main\n"
             f"sys.exit(main({argv!r}))\n")
     path = os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])
     env = dict(os.environ, PYTHONPATH=path, GIT_PYTHON_REFRESH="quiet")

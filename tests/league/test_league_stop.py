@@ -334,7 +334,7 @@ def test_league_plot_draws_every_player_of_the_table(tmp_path, monkeypatch, caps
     """Before: ratings.png drew the stored placement ratings: the anchors and snapshots,
     not the learners, rated differently from `league table`."""
     pytest.importorskip("matplotlib")
-    from h2h_racing.cli import main
+    from h2h_racing.cli.command import main
     from h2h_racing.league import plots
     from h2h_racing.league.store import LeagueStore
     from h2h_racing.league.table import table_rows
@@ -357,7 +357,7 @@ def test_league_plot_draws_every_player_of_the_table(tmp_path, monkeypatch, caps
 
 
 def test_league_table_rates_every_player_against_the_leagues_anchor(tmp_path, capsys):
-    from h2h_racing.cli import main
+    from h2h_racing.cli.command import main
     from h2h_racing.league.store import LeagueStore
 
     path = _league_with_learners(tmp_path)

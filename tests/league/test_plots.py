@@ -121,7 +121,7 @@ def test_win_matrix_title_clears_the_colour_bar(tmp_path: Path, monkeypatch) -> 
 
 
 def test_a_tournament_plots_ranked_intervals_not_a_training_axis(tmp_path: Path) -> None:
-    from h2h_racing.cli import main
+    from h2h_racing.cli.command import main
     from h2h_racing.league.store import LeagueStore, Player
 
     league = tmp_path / "t.sqlite"

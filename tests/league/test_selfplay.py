@@ -151,7 +151,7 @@ def test_smoke_league_snapshots_rates_and_resumes(tmp_path, capsys):
         assert (tmp_path / "learners" / learner / "runner.pt").is_file()
     league.close()
 
-    from h2h_racing.cli import main
+    from h2h_racing.cli.command import main
 
     capsys.readouterr()
     assert main(["league", "table", "--league", str(tmp_path / "league.sqlite"),

@@ -145,7 +145,7 @@ def test_swiss_tournament(tmp_path):
 
 def test_killed_tournament_resumes_without_double_counting(tmp_path):
     league = tmp_path / "l.sqlite"
-    cmd = [sys.executable, "-m", "h2h_racing.cli", "tournament", "--players", ",".join(PLAYERS),
+    cmd = [sys.executable, "-m", "h2h_racing.cli.command", "tournament", "--players", ",".join(PLAYERS),
            "--tracks", "oval,kidney", "--races", "2", "--laps", "1", "--name", "k",
            "--backend", "inprocess", "--league", str(league)]
     total = 3 * 2 * 2 * 2  # pairs x tracks x seeds x seat orders
@@ -199,7 +199,7 @@ def _cmdline(pid: int) -> bytes:
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
 def test_terminated_tournament_stops_its_workers(tmp_path):
     league = tmp_path / "l.sqlite"
-    cmd = [sys.executable, "-m", "h2h_racing.cli", "tournament", "--players", ",".join(PLAYERS),
+    cmd = [sys.executable, "-m", "h2h_racing.cli.command", "tournament", "--players", ",".join(PLAYERS),
            "--tracks", "oval,kidney", "--races", "2", "--laps", "1", "--name", "t",
            "--backend", "local", "--workers", "2", "--league", str(league)]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

@@ -1,11 +1,11 @@
-"""The tournament's progress line: the commands' shared display (h2h_racing.progress)."""
+"""The tournament's progress line: the commands' shared display (h2h_racing.common.progress)."""
 
 from __future__ import annotations
 
 import io
 
 from h2h_racing.league.cli import _races_progress
-from h2h_racing.progress import Progress
+from h2h_racing.common.progress import Progress
 
 
 class _Terminal(io.StringIO):

@@ -8,10 +8,10 @@ import sys
 
 import pytest
 
-from h2h_racing.config import EnvConfig
+from h2h_racing.config.env import EnvConfig
 from h2h_racing.policies import compute_race_line, reference_lap_time
 from h2h_racing.policies.lap_times import TrackLaps, track_laps
-from h2h_racing.track_io import list_tracks, load_track
+from h2h_racing.track.io import list_tracks, load_track
 
 GRAVITY = 9.81  # [m/s^2], racing_line.GRAVITY
 

@@ -17,16 +17,16 @@ import re
 import numpy as np
 import pytest
 
-from h2h_racing.config import EnvConfig, RaceRules
-from h2h_racing.core import RaceCore
+from h2h_racing.config.env import EnvConfig, RaceRules
+from h2h_racing.sim.core import RaceCore
 from h2h_racing.policies import make_driver, race_core
 from h2h_racing.policies import planner_kernel as kernel
 from h2h_racing.policies.planner import Planner
 from h2h_racing.policies.racing_line import compute_race_line
 from h2h_racing.policies.scripted import DRIVERS, TEACHERS
 from h2h_racing.policies.steering import lookahead, pursuit_steer, to_action
-from h2h_racing.track import Track
-from h2h_racing.track_io import list_tracks, load_track
+from h2h_racing.track.shape import Track
+from h2h_racing.track.io import list_tracks, load_track
 from h2h_racing.training.evaluate import evaluate
 
 TRACKS = list_tracks()

@@ -11,15 +11,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from h2h_racing.config import CarParams
+from h2h_racing.config.env import CarParams
 from h2h_racing.training.evaluate import evaluate
 from h2h_racing.match import run_race
 from h2h_racing.policies import RacingLine, compute_race_line, make_driver, race_core
 from h2h_racing.policies.banded import CyclicPentadiagonal
 from h2h_racing.policies.obstacles import avoid_obstacles, bend_protrusion
 from h2h_racing.policies.racing_line import curvature_qp_bands, min_curvature_offsets
-from h2h_racing.track import Track
-from h2h_racing.track_io import list_tracks, load_track
+from h2h_racing.track.shape import Track
+from h2h_racing.track.io import list_tracks, load_track
 
 circle_track = sys.modules["conftest"].circle_track
 ellipse_route_rows = sys.modules["conftest"].ellipse_route_rows

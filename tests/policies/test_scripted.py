@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import h2h_racing
-from h2h_racing.config import EnvConfig
-from h2h_racing.core import RaceCore
+from h2h_racing.config.env import EnvConfig
+from h2h_racing.sim.core import RaceCore
 from h2h_racing.policies import (
     Blocker,
     PurePursuit,
@@ -20,7 +20,7 @@ from h2h_racing.policies import (
     speed_profile,
     to_action,
 )
-from h2h_racing.track_io import list_tracks, load_track
+from h2h_racing.track.io import list_tracks, load_track
 
 TRACKS = list_tracks()
 CAR_HALF_WIDTH = 0.1  # [m]
@@ -186,7 +186,7 @@ class TestActionMapping:
     def test_commands_by_hand_with_a_custom_steering_range(self) -> None:
         import math
 
-        from h2h_racing.config import EnvConfig
+        from h2h_racing.config.env import EnvConfig
 
         cfg = EnvConfig(min_steer_deg=-10.0, max_steer_deg=30.0, min_speed=1.0, max_speed=3.0)
         # Steering: mid 10 deg, half 20 deg; speed: mid 2 m/s, half 1 m/s. a = (0.5, -1) ->

@@ -9,10 +9,10 @@ import math
 import numpy as np
 import pytest
 
-from h2h_racing.config import EnvConfig, RaceRules
-from h2h_racing.core import RaceCore
+from h2h_racing.config.env import EnvConfig, RaceRules
+from h2h_racing.sim.core import RaceCore
 from h2h_racing.policies import make_driver, tracking
-from h2h_racing.track_io import load_track
+from h2h_racing.track.io import load_track
 from h2h_racing.training.evaluate import evaluate
 
 

@@ -16,9 +16,9 @@ import torch
 from tensordict import TensorDict
 
 import h2h_racing
-from h2h_racing.cli import build_parser
-from h2h_racing.cli_training import _train_config
-from h2h_racing.config import CameraConfig, EnvConfig, LidarConfig
+from h2h_racing.cli.command import build_parser
+from h2h_racing.training.cli import _train_config
+from h2h_racing.config.env import CameraConfig, EnvConfig, LidarConfig
 from h2h_racing.match import run_race
 from h2h_racing.policies.trained import TrainedPolicy
 from h2h_racing.sensors.lidar import LidarSensor

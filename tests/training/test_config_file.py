@@ -75,7 +75,7 @@ def test_a_chain_longer_than_the_limit_is_refused(tmp_path: Path) -> None:
 
 
 def test_the_train_command_reads_extends(tmp_path: Path) -> None:
-    from h2h_racing.cli_training import _train_config
+    from h2h_racing.training.cli import _train_config
 
     (tmp_path / "base.toml").write_text(BASE)
     step = tmp_path / "step.toml"

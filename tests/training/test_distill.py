@@ -11,7 +11,7 @@ import torch
 from tensordict import TensorDict
 
 import h2h_racing
-from h2h_racing.config import CameraConfig
+from h2h_racing.config.env import CameraConfig
 from h2h_racing.training.config import DistillConfig, TrainConfig
 from h2h_racing.training.imitation import ImitationConfig
 from h2h_racing.training.policy_file import policy_payload

@@ -188,9 +188,9 @@ class TestStartPoints:
     """RaceCore.reset(start=...) moves the race's start and finish line."""
 
     def test_race_laps_count_from_the_start_point(self) -> None:
-        from h2h_racing.config import EnvConfig, RaceRules
-        from h2h_racing.core import RaceCore
-        from h2h_racing.track_io import load_track
+        from h2h_racing.config.env import EnvConfig, RaceRules
+        from h2h_racing.sim.core import RaceCore
+        from h2h_racing.track.io import load_track
 
         track = load_track("oval")
         core = RaceCore(EnvConfig(track="oval", num_cars=1, rules=RaceRules(laps=1)), track)
@@ -205,7 +205,7 @@ class TestEvaluateCli:
     """``h2h-racing evaluate --against``: head-to-head rows per track and opponent."""
 
     def test_rows_and_totals(self, capsys) -> None:
-        from h2h_racing.cli import main
+        from h2h_racing.cli.command import main
 
         assert main(["evaluate", "--policy", "racing_line", "--against", "pure_pursuit",
                      "--track", "oval", "--races", "2", "--laps", "1"]) == 0
@@ -219,7 +219,7 @@ class TestEvaluateCli:
         assert "(100 % won)" in total[0]
 
     def test_from_behind_rows(self, capsys) -> None:
-        from h2h_racing.cli import main
+        from h2h_racing.cli.command import main
 
         # --start behind takes an odd race count: there are no seat-order pairs to keep.
         assert main(["evaluate", "--policy", "racing_line", "--against", "pure_pursuit",
@@ -233,21 +233,21 @@ class TestEvaluateCli:
         assert "the policy starts behind, 2 m grid gap" in out
 
     def test_bad_gap_is_refused(self, capsys) -> None:
-        from h2h_racing.cli import main
+        from h2h_racing.cli.command import main
 
         assert main(["evaluate", "--policy", "racing_line", "--against", "pure_pursuit",
                      "--track", "oval", "--races", "2", "--gap", "-1"]) == 2
         assert "gap must be a distance in (0, " in capsys.readouterr().err
 
     def test_odd_race_count_is_refused(self, capsys) -> None:
-        from h2h_racing.cli import main
+        from h2h_racing.cli.command import main
 
         assert main(["evaluate", "--policy", "racing_line", "--against", "pure_pursuit",
                      "--track", "oval", "--races", "3"]) == 2
         assert "--races must be an even number" in capsys.readouterr().err
 
     def test_pace_margin_beside_the_results(self, capsys) -> None:
-        from h2h_racing.cli import main
+        from h2h_racing.cli.command import main
 
         assert main(["evaluate", "--policy", "racing_line", "--against",
                      "pure_pursuit,racing_line:grip_factor=0.7", "--track", "oval", "--races",
@@ -271,7 +271,7 @@ class TestEvaluateCli:
         assert total.split()[11:15] == slow[11:15]  # one track: the total repeats it
 
     def test_bad_settings_are_refused_in_one_line(self, capsys) -> None:
-        from h2h_racing.cli import main
+        from h2h_racing.cli.command import main
 
         assert main(["evaluate", "--policy", "racing_line", "--against",
                      "racing_line:grp=0.7", "--track", "oval", "--races", "2"]) == 2

@@ -104,7 +104,7 @@ class TestCombine:
 
 class TestFieldCli:
     def test_rows_by_slot(self, capsys) -> None:
-        from h2h_racing.cli import main
+        from h2h_racing.cli.command import main
 
         assert main(["evaluate", "--policy", "racing_line", "--field",
                      "pure_pursuit,pure_pursuit", "--track", "oval", "--races", "3",
@@ -127,21 +127,21 @@ class TestFieldCli:
         assert f"lap s on all tracks: racing_line {pace.group(1)};" in out
 
     def test_against_and_field_are_exclusive(self, capsys) -> None:
-        from h2h_racing.cli import main
+        from h2h_racing.cli.command import main
 
         assert main(["evaluate", "--policy", "racing_line", "--field", "a,b", "--against",
                      "blocker"]) == 2
         assert "not both" in capsys.readouterr().err
 
     def test_start_does_not_apply(self, capsys) -> None:
-        from h2h_racing.cli import main
+        from h2h_racing.cli.command import main
 
         assert main(["evaluate", "--policy", "racing_line", "--field", "blocker,blocker",
                      "--start", "behind"]) == 2
         assert "--field rotates the policy over every grid slot" in capsys.readouterr().err
 
     def test_races_must_fill_the_rotations(self, capsys) -> None:
-        from h2h_racing.cli import main
+        from h2h_racing.cli.command import main
 
         assert main(["evaluate", "--policy", "racing_line", "--field", "blocker,pure_pursuit",
                      "--track", "oval", "--races", "4", "--no-progress"]) == 2

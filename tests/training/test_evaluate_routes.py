@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from h2h_racing.cli import main
+from h2h_racing.cli.command import main
 from h2h_racing.training.evaluate import Evaluation, RaceEvaluation, evaluate_races
 from h2h_racing.training.evaluate_routes import (RouteFailure, RouteLaps, RouteRaces,
                                                  RouteTask, route_sources,
@@ -35,7 +35,7 @@ OFFSET = "pure_pursuit:offset=0.45"
 @pytest.fixture(scope="module")
 def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """oval.json, narrow.json (0.6 of the oval's width), broken.npy, notes.txt, .hidden.json."""
-    from h2h_racing.track_io import load_track, save_track
+    from h2h_racing.track.io import load_track, save_track
 
     out = tmp_path_factory.mktemp("routes")
     save_track(load_track("oval"), out / "oval.json")
@@ -74,7 +74,7 @@ class TestRouteSources:
         assert [Path(p).name for p in sources.ignored] == ["notes.txt"]
 
     def test_comma_lists_names_files_and_all(self, folder: Path) -> None:
-        from h2h_racing.track_io import list_tracks
+        from h2h_racing.track.io import list_tracks
 
         sources = route_sources([f"oval,{folder / 'narrow.json'}", "random:3"])
         assert [(s.route, s.source) for s in sources.routes] == [
@@ -239,7 +239,7 @@ class TestEvaluateRaces:
 def test_ctrl_c_keeps_the_routes_done(folder: Path, tmp_path: Path) -> None:
     """Ctrl-C during a run with workers: the routes done are summed up and written, the
     workers are stopped, and the command ends at once with status 130."""
-    from h2h_racing.track_io import load_track, save_track
+    from h2h_racing.track.io import load_track, save_track
 
     (tmp_path / "in").mkdir()
     for k in range(4):
@@ -248,7 +248,7 @@ def test_ctrl_c_keeps_the_routes_done(folder: Path, tmp_path: Path) -> None:
     # 5000 attempts on a 100 m lap, then racing_line's: a route takes about a minute on the
     # development machine, so none finishes before Ctrl-C, nor within the 30 s allowed after.
     proc = subprocess.Popen(
-        [sys.executable, "-m", "h2h_racing.cli", "evaluate", "--policy", "pure_pursuit",
+        [sys.executable, "-m", "h2h_racing.cli.command", "evaluate", "--policy", "pure_pursuit",
          "--track", str(tmp_path / "in"), "--episodes", "5000", "--jobs", "2", "--json",
          str(out), "--no-progress"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:

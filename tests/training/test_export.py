@@ -12,8 +12,8 @@ import pytest
 import torch
 
 import h2h_racing
-from h2h_racing.cli import main
-from h2h_racing.config import CameraConfig
+from h2h_racing.cli.command import main
+from h2h_racing.config.env import CameraConfig
 from h2h_racing.training import export as export_module
 from h2h_racing.training.export import export_policy
 from h2h_racing.training.config import TrainConfig

@@ -13,7 +13,7 @@ import pytest
 import torch
 
 from h2h_racing.sensors.state import BASE_FEATURES, OPPONENT_FEATURES
-from h2h_racing.track_io import load_track
+from h2h_racing.track.io import load_track
 from h2h_racing.training.config import DistillConfig, TrainConfig
 from h2h_racing.training.imitation import ImitationConfig
 from h2h_racing.training.race_settings import RaceSettings

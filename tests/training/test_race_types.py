@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 import torch
 
-from h2h_racing.cli import build_parser
-from h2h_racing.cli_training import _train_config
-from h2h_racing.config import EnvConfig, RaceRules
+from h2h_racing.cli.command import build_parser
+from h2h_racing.training.cli import _train_config
+from h2h_racing.config.env import EnvConfig, RaceRules
 from h2h_racing.training.config import TrainConfig
 from h2h_racing.training.race_settings import RaceSettings
 from h2h_racing.training.train import train
@@ -140,7 +140,7 @@ class TestBoxes:
             env.step(torch.tensor([[1.0, 1.0]] * 64))
 
     def test_a_new_track_keeps_starts_clear(self) -> None:
-        from h2h_racing.track_io import load_track
+        from h2h_racing.track.io import load_track
 
         env = boxes_env(seed=2, num_envs=64)
         env.set_track(load_track("speedway"))

@@ -223,7 +223,7 @@ def test_train_cli_with_deepracer_defaults(tmp_path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from h2h_racing.cli import main
+    from h2h_racing.cli.command import main
 
     examples = Path(__file__).resolve().parents[2] / "examples" / "deepracer"
     out = tmp_path / "run"

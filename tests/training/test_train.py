@@ -18,7 +18,7 @@ from h2h_racing.training.train import train
 from h2h_racing.policies import make_driver
 from h2h_racing.policies.trained import TrainedPolicy, shipped_policies
 from h2h_racing.sensors.state import state_observation
-from h2h_racing.track_io import list_tracks, load_track
+from h2h_racing.track.io import list_tracks, load_track
 
 SMALL = TrainConfig(track="oval", num_envs=8, num_steps_per_env=8, hidden_dims=(16, 16))
 
@@ -217,7 +217,7 @@ class TestCommands:
     """``h2h-racing train`` and ``h2h-racing evaluate`` from the command line."""
 
     def test_train_then_evaluate(self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-        from h2h_racing.cli import main
+        from h2h_racing.cli.command import main
 
         out = tmp_path / "run"
         assert main(["train", "--track", "oval", "--iterations", "3", "--envs", "8",
@@ -374,7 +374,7 @@ class TestMaxStd:
                 dataclasses.replace(SMALL, max_std=bad)
 
     def test_cli_flag(self, tmp_path: Path) -> None:
-        from h2h_racing.cli import main
+        from h2h_racing.cli.command import main
 
         out = tmp_path / "run"
         assert main(["train", "--track", "oval", "--iterations", "1", "--envs", "8",
@@ -498,7 +498,7 @@ class TestProcedural:
 
     def test_chicanes_reach_the_training_tracks(self) -> None:
         from h2h_racing.training.tracks import random_training_track
-        from h2h_racing.track_gen import curvature
+        from h2h_racing.track.generator import curvature
 
         # The same draws with and without chicanes: the chicane track turns right far
         # harder (its loop runs anticlockwise; the chicanes swerve both ways).
@@ -596,7 +596,7 @@ class TestProcedural:
             ProceduralTracks(narrowest=0.4)
 
     def test_hairpin_circuits_bring_legs_as_close_as_technicals(self) -> None:
-        from h2h_racing.track_metrics import min_clearance
+        from h2h_racing.track.metrics import min_clearance
         from h2h_racing.training.tracks import HAIRPIN_CELL, random_training_track
 
         # Cells of 1.26-1.6 m: two legs one cell apart are 1.26-1.6 m apart centre to centre,
@@ -623,7 +623,7 @@ class TestProcedural:
 
 def test_train_cli_rules_and_reward(tmp_path: Path) -> None:
     """``--rules race --reward ...`` reach the TrainConfig saved in policy.pt."""
-    from h2h_racing.cli import main
+    from h2h_racing.cli.command import main
 
     out = tmp_path / "run"
     assert main(["train", "--track", "oval", "--iterations", "1", "--envs", "4", "--no-onnx",
@@ -642,7 +642,7 @@ def test_train_cli_rules_and_reward(tmp_path: Path) -> None:
 
 def test_train_cli_config_file_and_overriding_flags(tmp_path: Path) -> None:
     """``--config`` gives the fields, flags given on the command line override them."""
-    from h2h_racing.cli import main
+    from h2h_racing.cli.command import main
 
     path = tmp_path / "train.toml"
     path.write_text('track = "kidney"\nnum_envs = 4\neval_every = 0\nseed = 3\n'
@@ -664,7 +664,7 @@ def test_train_cli_config_file_and_overriding_flags(tmp_path: Path) -> None:
 
 def test_train_cli_with_deepracer_inputs(tmp_path: Path) -> None:
     """``h2h-racing train --reward-function --model-metadata --simtrace`` on a route file."""
-    from h2h_racing.cli import main
+    from h2h_racing.cli.command import main
 
     examples = Path(__file__).resolve().parents[2] / "examples" / "deepracer"
     out = tmp_path / "run"

@@ -52,7 +52,7 @@ def test_cuda_without_a_gpu_fails_before_any_work(no_gpu: None,
 
 def test_cli_cuda_without_a_gpu_is_a_one_line_error(no_gpu: None, tmp_path: Path,
                                                     capsys: pytest.CaptureFixture[str]) -> None:
-    from h2h_racing.cli import main
+    from h2h_racing.cli.command import main
 
     out = tmp_path / "run"
     assert main(["train", "--device", "cuda", "--envs", "4", "--iterations", "1",
@@ -65,7 +65,7 @@ def test_cli_cuda_without_a_gpu_is_a_one_line_error(no_gpu: None, tmp_path: Path
 
 
 def test_cli_device_cpu_trains_on_the_cpu(tmp_path: Path) -> None:
-    from h2h_racing.cli import main
+    from h2h_racing.cli.command import main
 
     out = tmp_path / "run"
     assert main(["train", "--device", "cpu", "--track", "oval", "--opponents", "none",
@@ -77,7 +77,7 @@ def test_cli_device_cpu_trains_on_the_cpu(tmp_path: Path) -> None:
 
 
 def test_cli_help_shows_the_default(capsys: pytest.CaptureFixture[str]) -> None:
-    from h2h_racing.cli import main
+    from h2h_racing.cli.command import main
 
     with pytest.raises(SystemExit):
         main(["train", "--help"])

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from h2h_racing.cli import build_parser
-from h2h_racing.cli_train import _train_config
+from h2h_racing.cli.command import build_parser
+from h2h_racing.training.cli_train import _train_config
 from h2h_racing.training.config import TrainConfig
 from h2h_racing.training.train import train
 
@@ -104,7 +104,7 @@ def test_opponents_take_driver_settings(tmp_path: Path, capsys: pytest.CaptureFi
             _train_config(parser.parse_args(["train", "--out", "runs/x", "--opponents",
                                              opponents]))
     # On the command line: one line, and nothing trained or written.
-    from h2h_racing.cli import main
+    from h2h_racing.cli.command import main
 
     out = tmp_path / "run"
     assert main(["train", "--out", str(out), "--opponents", "racing_line:grip_factor=2"]) == 2

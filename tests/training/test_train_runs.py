@@ -47,7 +47,7 @@ class TestOutputFolder:
 
     def test_an_existing_out_is_refused_in_one_line_and_left_as_it_was(
             self, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-        from h2h_racing.cli import main
+        from h2h_racing.cli.command import main
 
         out = tmp_path / "run"
         out.mkdir()
@@ -233,7 +233,7 @@ class TestBudget:
 
 def _start(command: list[str], cwd: Path) -> subprocess.Popen[str]:
     # Python's own SIGINT handling in the child, whatever this process has installed.
-    return subprocess.Popen([sys.executable, "-m", "h2h_racing.cli", *command], cwd=cwd,
+    return subprocess.Popen([sys.executable, "-m", "h2h_racing.cli.command", *command], cwd=cwd,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
 
@@ -271,7 +271,7 @@ def test_ctrl_c_stops_at_an_iteration_with_one_line_and_resumes(tmp_path: Path) 
     # The command it gives resumes (with a cap just above, so that it ends).
     words = command.split()[1:]
     words[words.index("--iterations") + 1] = str(done + 1)
-    resumed = subprocess.run([sys.executable, "-m", "h2h_racing.cli", *words, "--no-progress"],
+    resumed = subprocess.run([sys.executable, "-m", "h2h_racing.cli.command", *words, "--no-progress"],
                              cwd=tmp_path, capture_output=True, text=True, timeout=240,
                              env={**os.environ})
     assert resumed.returncode == 0, resumed.stderr
@@ -311,8 +311,8 @@ class TestTrainedAlone:
 
     def test_race_warns_once_per_policy_trained_alone(
             self, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
-        from h2h_racing import cli_train
-        from h2h_racing.cli import main
+        from h2h_racing.training import cli_train
+        from h2h_racing.cli.command import main
 
         monkeypatch.setattr(cli_train, "_WARNED_ALONE", set())
         assert main(["race", "--track", "oval", "--laps", "1", "--no-progress", "--drivers",
@@ -329,7 +329,7 @@ class TestTrainedAlone:
 
     def test_no_warning_alone_or_for_racers(self, capsys: pytest.CaptureFixture[str],
                                             monkeypatch: pytest.MonkeyPatch) -> None:
-        from h2h_racing import cli_train
+        from h2h_racing.training import cli_train
 
         monkeypatch.setattr(cli_train, "_WARNED_ALONE", set())
         cli_train.warn_trained_alone(["ppo_generalist"], others=0)  # a time trial
@@ -339,8 +339,8 @@ class TestTrainedAlone:
 
     def test_evaluate_against_warns_once_over_opponents_and_tracks(
             self, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
-        from h2h_racing import cli_train
-        from h2h_racing.cli import main
+        from h2h_racing.training import cli_train
+        from h2h_racing.cli.command import main
 
         monkeypatch.setattr(cli_train, "_WARNED_ALONE", set())
         assert main(["evaluate", "--policy", "ppo_generalist", "--against",

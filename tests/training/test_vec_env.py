@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import torch
 
-from h2h_racing.config import EnvConfig, RaceRules
+from h2h_racing.config.env import EnvConfig, RaceRules
 from h2h_racing.training.vec_env import RacingVecEnv
 
 TRAIN_CFG = {
@@ -86,7 +86,7 @@ class TestRows:
 
     def test_expert_follows_a_track_change(self) -> None:
         from h2h_racing.policies import make_driver
-        from h2h_racing.track_io import load_track
+        from h2h_racing.track.io import load_track
 
         env = RacingVecEnv(training_config(num_cars=1), num_envs=3, expert="racing_line")
         env.set_track(load_track("kidney"))

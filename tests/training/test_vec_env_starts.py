@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import torch
 
-from h2h_racing.config import EnvConfig, RaceRules
+from h2h_racing.config.env import EnvConfig, RaceRules
 from h2h_racing.training.vec_env import RacingVecEnv
-from h2h_racing.track_io import load_track
+from h2h_racing.track.io import load_track
 
 L = load_track("oval").length  # 19.999672 m
 

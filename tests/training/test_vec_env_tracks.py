@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 import torch
 
-from h2h_racing.config import EnvConfig, RaceRules
-from h2h_racing.core import RaceCore
-from h2h_racing.track_io import load_track
+from h2h_racing.config.env import EnvConfig, RaceRules
+from h2h_racing.sim.core import RaceCore
+from h2h_racing.track.io import load_track
 from h2h_racing.training.config import TrainConfig
 from h2h_racing.training.tracks import ProceduralTracks, random_training_track
 from h2h_racing.training.train import train

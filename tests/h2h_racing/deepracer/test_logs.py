@@ -13,13 +13,13 @@ import numpy as np
 import pytest
 
 import h2h_racing
-from h2h_racing.config import EnvConfig, RaceRules
-from h2h_racing.core import RaceCore
+from h2h_racing.config.env import EnvConfig, RaceRules
+from h2h_racing.sim.core import RaceCore
 from h2h_racing.deepracer.logs import SIMTRACE_COLUMNS, STATUS_LABELS, SimtraceWriter
 from h2h_racing.match import run_race
 from h2h_racing.policies import make_driver
-from h2h_racing.track import Track
-from h2h_racing.track_io import save_track
+from h2h_racing.track.shape import Track
+from h2h_racing.track.io import save_track
 
 circle_track = sys.modules["conftest"].circle_track
 DT = 1.0 / 15.0

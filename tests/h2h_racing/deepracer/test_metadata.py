@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import h2h_racing
-from h2h_racing.config import EnvConfig
+from h2h_racing.config.env import EnvConfig
 from h2h_racing.deepracer import load_model_metadata
 
 EXAMPLE = Path(__file__).resolve().parents[3] / "examples" / "deepracer" / "model_metadata.json"

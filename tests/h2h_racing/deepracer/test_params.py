@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from h2h_racing.config import CarParams
+from h2h_racing.config.env import CarParams
 from h2h_racing.deepracer.params import PARAM_KEYS, ParamsBuilder, copy_params
-from h2h_racing.track import Track
-from h2h_racing.track_io import load_track
+from h2h_racing.track.shape import Track
+from h2h_racing.track.io import load_track
 
 ROUTES = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "deepracer_tracks"
 CAR = CarParams()

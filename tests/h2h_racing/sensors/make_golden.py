@@ -14,8 +14,8 @@ import cv2
 import numpy as np
 
 import h2h_racing
-from h2h_racing.config import EnvConfig
-from h2h_racing.core import RaceCore
+from h2h_racing.config.env import EnvConfig
+from h2h_racing.sim.core import RaceCore
 from h2h_racing.sensors.camera import CameraConfig, CameraSensor
 
 GOLDEN_DIR = Path(__file__).resolve().parent / "golden"

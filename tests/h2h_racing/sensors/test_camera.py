@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import h2h_racing
-from h2h_racing.config import EnvConfig
-from h2h_racing.core import RaceCore
+from h2h_racing.config.env import EnvConfig
+from h2h_racing.sim.core import RaceCore
 from h2h_racing.sensors.camera import (
     CAR_SHADES,
     SKY,

@@ -10,7 +10,7 @@ from pettingzoo.test import api_test, parallel_api_test
 from pettingzoo.utils.conversions import parallel_to_aec
 
 import h2h_racing
-from h2h_racing.config import CameraConfig, EnvConfig, LidarConfig
+from h2h_racing.config.env import CameraConfig, EnvConfig, LidarConfig
 
 COMBINATIONS = [("camera",), ("lidar",), ("state", "lidar"), ("camera", "lidar", "state"),
                 ("state",)]

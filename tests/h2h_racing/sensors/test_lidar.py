@@ -11,8 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import h2h_racing
-from h2h_racing.config import CarParams, EnvConfig
-from h2h_racing.core import RaceCore
+from h2h_racing.config.env import CarParams, EnvConfig
+from h2h_racing.sim.core import RaceCore
 from h2h_racing.sensors.lidar import LidarConfig, LidarSensor
 
 TRACK = "oval"

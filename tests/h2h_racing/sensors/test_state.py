@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from h2h_racing.config import EnvConfig
-from h2h_racing.core import RaceCore
+from h2h_racing.config.env import EnvConfig
+from h2h_racing.sim.core import RaceCore
 from h2h_racing.sensors.state import BASE_FEATURES, OPPONENT_FEATURES, state_observation
 
 from conftest import circle_track

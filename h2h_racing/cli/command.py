@@ -32,11 +32,11 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from h2h_racing.cli_help import DESCRIPTION, DRIVERS_HELP, EPILOG, SEED_HELP, ArgumentParser
-from h2h_racing.cli_train import warn_trained_alone
-from h2h_racing.cli_training import add_training_commands
-from h2h_racing.config_rules import RACE_TYPES
-from h2h_racing.progress import add_progress_flag, progress_mode
+from h2h_racing.cli.help import DESCRIPTION, DRIVERS_HELP, EPILOG, SEED_HELP, ArgumentParser
+from h2h_racing.training.cli_train import warn_trained_alone
+from h2h_racing.training.cli import add_training_commands
+from h2h_racing.config.rules import RACE_TYPES
+from h2h_racing.common.progress import add_progress_flag, progress_mode
 
 
 def _scale(text: str) -> float | tuple[float, float]:
@@ -59,7 +59,7 @@ TRACKS_NOTE = ("reference s: the minimum-time reference lap, an estimate: a poin
 def _track_sources(text: str | None) -> list[str]:
     """The tracks ``--track`` names: the catalogue (None), else each comma-separated item, a
     folder standing for its .json, .npy and .csv files."""
-    from h2h_racing.track_io import list_tracks
+    from h2h_racing.track.io import list_tracks
 
     if text is None:
         return list_tracks()
@@ -80,7 +80,7 @@ def _track_sources(text: str | None) -> list[str]:
 
 def _cmd_tracks_list(args: argparse.Namespace) -> int:
     from h2h_racing.policies.lap_times import TrackLaps, track_laps
-    from h2h_racing.track_io import load_track
+    from h2h_racing.track.io import load_track
 
     tracks = [load_track(name) for name in _track_sources(args.track)]
     width = max(16, *(len(t.name) for t in tracks))
@@ -94,8 +94,8 @@ def _cmd_tracks_list(args: argparse.Namespace) -> int:
 def _cmd_tracks_show(args: argparse.Namespace) -> int:
     import cv2
 
-    from h2h_racing.render import SpectatorRenderer
-    from h2h_racing.track_io import load_track
+    from h2h_racing.viz.render import SpectatorRenderer
+    from h2h_racing.track.io import load_track
 
     track = load_track(args.name)
     out = Path(args.out or f"{track.name or Path(args.name).stem}.png")
@@ -109,7 +109,7 @@ def _cmd_tracks_show(args: argparse.Namespace) -> int:
 def _cmd_tracks_import(args: argparse.Namespace) -> int:
     import dataclasses
 
-    from h2h_racing.track_io import load_track, save_track
+    from h2h_racing.track.io import load_track, save_track
 
     name = args.name or Path(args.file).stem
     track = dataclasses.replace(load_track(args.file, scale=args.scale, reverse=args.reverse),
@@ -123,7 +123,7 @@ def _cmd_tracks_import(args: argparse.Namespace) -> int:
 
 def _cmd_race(args: argparse.Namespace) -> int:
     from h2h_racing.match import FALLBACK_CODEC, run_race
-    from h2h_racing.track_io import list_tracks
+    from h2h_racing.track.io import list_tracks
 
     drivers = [d.strip() for d in args.drivers.split(",") if d.strip()]
     tracks = list_tracks() if args.track == "all" else [args.track]
@@ -312,5 +312,5 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
 
 
-if __name__ == "__main__":
+if __name__ == "__main__":  # python -m h2h_racing.cli.command (or h2h_racing.cli)
     sys.exit(main())

@@ -6,9 +6,9 @@ docstring says otherwise. Configs are immutable: derive a variant with
 
 :class:`EnvConfig` (here) holds everything that defines an environment; its parts live in
 their own modules and are importable from here too: :class:`CarParams`
-(:mod:`h2h_racing.config_car`), :class:`RaceRules` (:mod:`h2h_racing.config_rules`),
-:class:`CameraConfig` and :class:`LidarConfig` (:mod:`h2h_racing.config_sensors`), with the
-shared validation helpers in :mod:`h2h_racing.config_checks`.
+(:mod:`h2h_racing.config.car`), :class:`RaceRules` (:mod:`h2h_racing.config.rules`),
+:class:`CameraConfig` and :class:`LidarConfig` (:mod:`h2h_racing.config.sensors`), with the
+shared validation helpers in :mod:`h2h_racing.config.checks`.
 """
 
 from __future__ import annotations
@@ -22,10 +22,10 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from h2h_racing.config_car import CarParams
-from h2h_racing.config_checks import _check, _finite_positive, _is_int, _is_number
-from h2h_racing.config_rules import RACE_TYPES, RULE_MODES, RaceType, Ranking, RaceRules, RuleMode
-from h2h_racing.config_sensors import LIDAR_MAX_RANGE, CameraConfig, LidarConfig
+from h2h_racing.config.car import CarParams
+from h2h_racing.config.checks import _check, _finite_positive, _is_int, _is_number
+from h2h_racing.config.rules import RACE_TYPES, RULE_MODES, RaceType, Ranking, RaceRules, RuleMode
+from h2h_racing.config.sensors import LIDAR_MAX_RANGE, CameraConfig, LidarConfig
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -298,7 +298,7 @@ class EnvConfig:
             values = self.num_cars * cam.width * cam.height * cam.channels
             _check(values <= MAX_CAMERA_VALUES_ALL_CARS, owner, "camera", cam,
                    f"at most {MAX_CAMERA_VALUES_ALL_CARS} camera values a step for all cars "
-                   f"(h2h_racing.config.MAX_CAMERA_VALUES_ALL_CARS, 64 MiB; num_cars * width * "
+                   f"(h2h_racing.config.env.MAX_CAMERA_VALUES_ALL_CARS, 64 MiB; num_cars * width * "
                    f"height * (2 if stereo else 1) * frame_stack = {self.num_cars} * {cam.width} * "
                    f"{cam.height} * {cam.cameras} * {cam.frame_stack} = {values}): use fewer "
                    f"cars, frames or pixels")

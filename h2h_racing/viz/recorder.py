@@ -20,8 +20,8 @@ or :class:`RecordingEnv` wraps the env and logs every ``reset`` and ``step`` its
 Open the file with ``rerun race.rrd``.
 
 The recorder's parts stand in their own modules, none of which imports rerun:
-:mod:`h2h_racing.viz_cars` (the per-car streams), :mod:`h2h_racing.viz_events` (the event
-lines) and :mod:`h2h_racing.viz_server` (the web viewer's server process and ports).
+:mod:`h2h_racing.viz.cars` (the per-car streams), :mod:`h2h_racing.viz.events` (the event
+lines) and :mod:`h2h_racing.viz.server` (the web viewer's server process and ports).
 
 What is recorded (entity paths):
 
@@ -60,13 +60,13 @@ from typing import TYPE_CHECKING, Any, Self
 
 import numpy as np
 
-from h2h_racing.extras import install_hint, missing_extra
-from h2h_racing.render import car_colour
+from h2h_racing.common.extras import install_hint, missing_extra
+from h2h_racing.viz.render import car_colour
 # Re-exported here, where users and tests look for them: TRAJECTORY_PIECE, EVENT_KINDS and
 # check_ports_free.
-from h2h_racing.viz_cars import REWARD_TERMS, TRAJECTORY_PIECE, CarStreams, _box_corners
-from h2h_racing.viz_events import EVENT_KINDS, EVENT_LEVELS, step_event_lines
-from h2h_racing.viz_server import (
+from h2h_racing.viz.cars import REWARD_TERMS, TRAJECTORY_PIECE, CarStreams, _box_corners
+from h2h_racing.viz.events import EVENT_KINDS, EVENT_LEVELS, step_event_lines
+from h2h_racing.viz.server import (
     check_ports_free,
     has_display,
     start_native_viewer,
@@ -75,8 +75,8 @@ from h2h_racing.viz_server import (
 )
 
 if TYPE_CHECKING:
-    from h2h_racing.core import StepEvents
-    from h2h_racing.env import RacingEnv
+    from h2h_racing.sim.core import StepEvents
+    from h2h_racing.envs.parallel import RacingEnv
 
 INSTALL_HINT = install_hint("viz")
 """The command that installs the optional rerun dependency."""
@@ -378,10 +378,10 @@ class RaceRecorder(CarStreams):
         """Log the final results table (``env.results()``) as a ``[results]`` event.
 
         Args:
-            rows: Result rows, winner first (see ``h2h_racing.results.race_results``).
+            rows: Result rows, winner first (see ``h2h_racing.envs.results.race_results``).
             names: Optional display name (e.g. driver) of each agent.
         """
-        from h2h_racing.results import format_results
+        from h2h_racing.envs.results import format_results
 
         self._check_open()
         self._event("results", "final results\n" + format_results(rows, names))

@@ -10,9 +10,9 @@ questions the simulation core asks every step, vectorised over any leading shape
 * :meth:`Track.point_at`, :meth:`Track.heading_at`, :meth:`Track.curvature_at`,
   :meth:`Track.half_widths_at`, :meth:`Track.lane_point` go the other way.
 
-This module is pure numpy (no pymunk, cv2 or pettingzoo); loaders live in :mod:`h2h_racing.track_io`,
-the polyline geometry and self-crossing checks in :mod:`h2h_racing.track_geometry`, and the projection
-lookup grid with its compiled kernel in :mod:`h2h_racing.track_projection`.
+This module is pure numpy (no pymunk, cv2 or pettingzoo); loaders live in :mod:`h2h_racing.track.io`,
+the polyline geometry and self-crossing checks in :mod:`h2h_racing.track.geometry`, and the projection
+lookup grid with its compiled kernel in :mod:`h2h_racing.track.projection`.
 
 **Frenet inverse.** The nearest-point map onto a polyline is not smooth: on the outside of a vertex a whole
 wedge of points projects onto the vertex, and on the inside ``s`` jumps by ``2|d|tan(turn/2)`` across the
@@ -33,8 +33,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from h2h_racing.track_geometry import _centre_geometry, _check_no_fold, _check_simple, _ro
-from h2h_racing.track_projection import Projector, project_kernel
+from h2h_racing.track.geometry import _centre_geometry, _check_no_fold, _check_simple, _ro
+from h2h_racing.track.projection import Projector, project_kernel
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -51,7 +51,7 @@ BORDER_TOLERANCE = 0.005
 MAX_TRACK_VERTICES = 100_000
 """Most centre-line vertices a track may have. Real tracks have a few hundred to a few thousand (a
 TUMFTM circuit at 1 m spacing about 5,000); the checks load 100,000 in about 1.5 s, but every
-racing env's lookup grid (:mod:`h2h_racing.track_projection`) costs time in proportion to the vertex
+racing env's lookup grid (:mod:`h2h_racing.track.projection`) costs time in proportion to the vertex
 count, so thin a denser file out (every k-th row) before loading it."""
 
 _ALL = np.zeros(0, dtype=bool)  # an empty mask means "project every point"
@@ -69,7 +69,7 @@ def _as_xy(name: str, value: Any, where: str) -> FloatArray:
 class Track:
     """An immutable closed race track (DeepRacer scale, metres).
 
-    Construct it directly from arrays or through :func:`h2h_racing.track_io.load_track`. All arrays are
+    Construct it directly from arrays or through :func:`h2h_racing.track.io.load_track`. All arrays are
     float64 copies flagged read-only. The constructor validates the geometry and raises ``ValueError``
     naming the source, the problem, the vertex index and its coordinates.
 
@@ -110,7 +110,7 @@ class Track:
         if m > MAX_TRACK_VERTICES:
             raise ValueError(
                 f"{where}: the centre line has {m} vertices; at most {MAX_TRACK_VERTICES} are allowed "
-                "(h2h_racing.track.MAX_TRACK_VERTICES). Thin the file out, e.g. keep every k-th row."
+                "(h2h_racing.track.shape.MAX_TRACK_VERTICES). Thin the file out, e.g. keep every k-th row."
             )
         wl = self._as_widths("width_left", self.width_left, m)
         wr = self._as_widths("width_right", self.width_right, m)
