@@ -243,14 +243,17 @@ def test_ctrl_c_keeps_the_routes_done(folder: Path, tmp_path: Path) -> None:
 
     (tmp_path / "in").mkdir()
     for k in range(4):
-        save_track(load_track("oval", scale=(5.0, 1.0)), tmp_path / "in" / f"r{k}.json")
+        save_track(load_track("oval", scale=(10.0, 1.0)), tmp_path / "in" / f"r{k}.json")
     out = tmp_path / "partial.json"
-    # 5000 attempts on a 100 m lap, then racing_line's: a route takes about a minute on the
-    # development machine, so none finishes before Ctrl-C, nor within the 30 s allowed after.
+    # 5000 attempts on a 200 m lap, then racing_line's: a route takes about a minute on a
+    # quiet development machine, so none finishes before Ctrl-C, nor within the 30 s allowed
+    # after. The command gets Python's own Ctrl-C whatever this process ignores (a child
+    # inherits an ignored SIGINT, and the full run's earlier tests may have left one).
     proc = subprocess.Popen(
         [sys.executable, "-m", "h2h_racing.cli.command", "evaluate", "--policy", "pure_pursuit",
          "--track", str(tmp_path / "in"), "--episodes", "5000", "--jobs", "2", "--json",
-         str(out), "--no-progress"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+         str(out), "--no-progress"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         assert proc.stdout is not None
         assert "4 routes" in proc.stdout.readline()  # the run has started
