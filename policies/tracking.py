@@ -62,9 +62,11 @@ driven. Alone at grip 0.85 on the shipped and 20 random tracks (10 starts each),
 1-4 left 2-5 tracks unclean when the whole sideslip entered the heading error; these are the
 middle of that range."""
 SLIP_SHARE = 0.5
-"""``b``: share of the sideslip in the heading error. Alone at grip 0.85 and 0.95 on the
-shipped and 60 random tracks (10 starts each): 1 left random tracks unclean, 0 one track at
-0.8, 0.25 and 0.5 none (0.5 the faster laps, 2.4 % over the minimum-time reference)."""
+"""``b``: share of the sideslip in the heading error. Alone on the shipped and 20 random
+tracks (10 starts each, measured before ``STEER_SMOOTH``): 1 left ``random:7`` unclean at
+every grip from 0.65 to 0.95, 0 left one or two tracks at 0.8 and 0.85, 0.25 and 0.5 none at
+0.8 and 0.9; on 40 more random tracks, 0.25 and 0.5 none at 0.85 and 0.95 (0.5 the faster
+laps: 1.024 x the minimum-time reference at 0.85)."""
 CURVATURE_PREVIEW = 0.05
 """``tau``: the path's curvature is read this far ahead of the car [s], about the steering's
 lag within a control step."""
