@@ -265,7 +265,7 @@ def test_ctrl_c_keeps_the_routes_done(folder: Path, tmp_path: Path) -> None:
     finally:
         if proc.poll() is None:
             proc.kill()
-    assert proc.returncode == 130, stderr
+    assert proc.returncode == 130, (stdout, stderr)
     assert "interrupted (Ctrl-C) after 0 of 4 routes" in stdout
     data = json.loads(out.read_text())
     assert data["interrupted"] is True and data["routes"] == [] and data["routes_given"] == 4
