@@ -253,17 +253,11 @@ def package_init(package: str, doc: str, face: str | None, exports: list[str]) -
     return (
         f'"""{doc}\n\nThe names of the old ``h2h_racing.{package}`` module are here too '
         f"(from ``{face}``, imported\nwhen first used).\n" + '"""\n\n'
-        "from __future__ import annotations\n\nimport importlib\nfrom typing import Any\n\n"
-        f"__all__ = [\n{listed}]\n\n\n"
-        "def __getattr__(name: str) -> Any:\n"
-        "    # Lazily, so that importing one submodule does not import the face module's "
-        "dependencies.\n"
-        "    if name in __all__:\n"
-        f'        return getattr(importlib.import_module("h2h_racing.{package}.{face}"), name)\n'
-        f'    raise AttributeError(f"module \'h2h_racing.{package}\' has no attribute '
-        "{name!r}\")\n\n\n"
-        "def __dir__() -> list[str]:\n"
-        "    return sorted(set(globals()) | set(__all__))\n")
+        "from __future__ import annotations\n\n"
+        "from h2h_racing.common.faces import lazy_face\n\n"
+        f"__all__ = [\n{listed}]\n\n"
+        f'__getattr__, __dir__ = lazy_face(__name__, "h2h_racing.{package}.{face}", __all__, '
+        "globals())\n")
 
 
 def shim(old: str, new: str) -> str:

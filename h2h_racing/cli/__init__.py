@@ -7,8 +7,7 @@ when first used).
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from h2h_racing.common.faces import lazy_face
 
 __all__ = [
     "ArgumentParser",
@@ -26,13 +25,4 @@ __all__ = [
     "warn_trained_alone",
 ]
 
-
-def __getattr__(name: str) -> Any:
-    # Lazily, so that importing one submodule does not import the face module's dependencies.
-    if name in __all__:
-        return getattr(importlib.import_module("h2h_racing.cli.command"), name)
-    raise AttributeError(f"module 'h2h_racing.cli' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_face(__name__, "h2h_racing.cli.command", __all__, globals())
