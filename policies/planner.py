@@ -334,6 +334,8 @@ class Planner:
         # the path's curvature says nothing of that detour. The pursuit arc's curvature
         # times speed is the yaw rate it asks for (r = v tan(delta) / L).
         boxed = np.abs(d_look - planned) > 0.01
+        if not boxed.any():  # no box in the way: the usual step, no pursuit to compute
+            return to_action(core, steer, tracked_cmd)
         pursuit = pursuit_steer(core, car, track.point_at(s + look, d_look))
         pursuit -= tracking.YAW_DAMPING * (core.yaw_rate[:, car]
                                            - v * np.tan(pursuit) / core.config.car.wheelbase)
