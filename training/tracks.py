@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from h2h_racing.track.shape import Track
+from h2h_racing.track.shape import FloatArray, Track
 from h2h_racing.track.generator import random_track
 from h2h_racing.track.circuits import random_circuit
 
@@ -22,7 +22,8 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
                           chicanes: tuple[int, int] = (0, 0),
                           tight_share: float = 0.0, circuit_share: float = 0.0,
                           circuit_corners: str | tuple[str, ...] = "arcs",
-                          narrowest: float = 0.76) -> Track:
+                          narrowest: float = 0.76, widest: float = 1.07,
+                          waypoint_gap: tuple[float, float] = (0.05, 0.05)) -> Track:
     """A random closed track for training: lap length drawn in ``length`` [m], width in the
     catalogue's range [0.76, 1.07] m (its low end ``narrowest``): constant (drawn uniformly)
     or, on a ``varying_share`` of the tracks, varying along the lap between two widths drawn
@@ -38,20 +39,35 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
     0-5 % for the other tracks (``technical``: 40 %).
 
     A ``circuit_share`` of the tracks are circuits of tight corners (``random_circuit``): width
-    drawn in ``TIGHT_WIDTH``, 0-2 chicanes, drawn in one of the ``circuit_corners`` styles
-    (``CIRCUIT_STYLES``; one drawn per circuit when several are given).
+    drawn in ``TIGHT_WIDTH`` (up to ``LONG_WIDEST`` for ``"long"`` ones), 0-2 chicanes, drawn
+    in one of the ``circuit_corners`` styles (``CIRCUIT_STYLES``; one drawn per circuit when
+    several are given).
 
     ``narrowest`` [m] replaces 0.76 as the low end of every width range (``TIGHT_WIDTH``'s
-    too): DeepRacer's ``Oval_track`` narrows to 0.61 m."""
+    too): DeepRacer's ``Oval_track`` narrows to 0.61 m. ``widest`` [m] replaces 1.07 as the
+    high end of the other tracks' widths: DeepRacer's routes widen to 1.97 m.
+
+    ``waypoint_gap`` ``(low, high)`` [m] other than the generator's own 5 cm re-draws every
+    track's centre line through waypoints spaced as DeepRacer's files are (0.06-0.98 m apart,
+    evenly on most routes, unevenly on some): each track draws two gaps in the range, and its
+    waypoints are that far apart, each gap drawn uniformly between the two (``resample``)."""
     # No draw without the option: the same seed gives the same tracks as before it.
     if circuit_share > 0 and rng.random() < circuit_share:
-        width = float(rng.uniform(narrowest, TIGHT_WIDTH[1]))
         styles = (circuit_corners,) if isinstance(circuit_corners, str) else circuit_corners
-        # No draw for a single style: the same seed gives the same circuits as before.
+        # The width is drawn first, the style after: the same seed gives the same circuits as
+        # before "long" existed; no draw for a single style.
+        width = float(rng.uniform(narrowest, TIGHT_WIDTH[1]))
         style = styles[int(rng.integers(len(styles)))] if len(styles) > 1 else styles[0]
-        spec = random_circuit(rng, width=width, chicanes=(0, 2),
-                              corner_radius=(max(0.5, 0.6 * width), 0.7), **CIRCUIT_STYLES[style])
-        return _maybe_reversed(rng, spec, reverse_share)
+        settings = dict(CIRCUIT_STYLES[style])
+        if style == "long":
+            # Stretched to the style's own range: narrowest..LONG_WIDEST from the same draw.
+            width = narrowest + (width - narrowest) * (LONG_WIDEST - narrowest) / (
+                TIGHT_WIDTH[1] - narrowest)
+        settings.setdefault("corner_radius", (max(0.5, 0.6 * width), 0.7))
+        settings["corner_radius"] = (max(settings["corner_radius"][0], 0.6 * width),
+                                     settings["corner_radius"][1])
+        spec = random_circuit(rng, width=width, chicanes=(0, 2), **settings)
+        return _finished(rng, spec, reverse_share, waypoint_gap)
     if tight_share > 0 and rng.random() < tight_share:
         width: float | tuple[float, float] = float(rng.uniform(narrowest, TIGHT_WIDTH[1]))
         # About 1 in 12 calls of random_track finds no valid loop of this kind in its 100
@@ -65,15 +81,23 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
             except RuntimeError:
                 if attempt == 4:
                     raise
-        return _maybe_reversed(rng, spec, reverse_share)
-    width = float(rng.uniform(narrowest, 1.07))
-    # No draw without varying widths: the same seed gives the same tracks as before the option.
-    if varying_share > 0 and rng.random() < varying_share:
-        width = (min(width, w := float(rng.uniform(narrowest, 1.07))), max(width, w))
-    widest = width if isinstance(width, float) else width[1]
-    spec = random_track(rng, length_range=length, width=width,
-                        min_radius=max(min_radius, 0.6 * widest), chicanes=chicanes)
-    return _maybe_reversed(rng, spec, reverse_share)
+        return _finished(rng, spec, reverse_share, waypoint_gap)
+    # A wide track needs wide corners (1.2 x its half-width) that a short loop may not have
+    # room for: after 100 loops without one, the width is drawn again (at most 5 times).
+    for attempt in range(5):
+        width = float(rng.uniform(narrowest, widest))
+        # No draw without varying widths: the same seed gives the same tracks as before.
+        if varying_share > 0 and rng.random() < varying_share:
+            width = (min(width, w := float(rng.uniform(narrowest, widest))), max(width, w))
+        wide = width if isinstance(width, float) else width[1]
+        try:
+            spec = random_track(rng, length_range=length, width=width,
+                                min_radius=max(min_radius, 0.6 * wide), chicanes=chicanes)
+            break
+        except RuntimeError:
+            if attempt == 4:
+                raise
+    return _finished(rng, spec, reverse_share, waypoint_gap)
 
 
 TIGHT_LENGTH = (14.0, 22.0)
@@ -88,6 +112,7 @@ CIRCUIT_STYLES: dict[str, dict[str, Any]] = {
     "arcs": {},
     "bspline": {"corners": "bspline", "cell": BSPLINE_CELL, "jitter": 0.08},
     "hairpins": {"cell": HAIRPIN_CELL},
+    "long": {"cell": (2.5, 5.0), "cells": (8, 20), "corner_radius": (0.6, 1.5)},
 }
 """The ``circuit_corners`` styles of ``random_training_track``'s circuits: ``random_circuit``'s
 arguments for each.
@@ -97,16 +122,56 @@ arguments for each.
 - ``"bspline"``: the outline's B-spline on cells of ``BSPLINE_CELL`` (``corner_radius`` unused):
   round hairpins and esses with no straights between, 26-39 % of the lap under 1 m.
 - ``"hairpins"``: arcs on cells of ``HAIRPIN_CELL``: a one-cell bay or peninsula is a
-  semicircle, its legs 0.36-0.84 m apart at the borders (``technical``'s bay: 0.5 m)."""
+  semicircle, its legs 0.36-0.84 m apart at the borders (``technical``'s bay: 0.5 m).
+- ``"long"``: arcs of 0.6-1.5 m on 8-20 cells of 2.5-5 m, ``LONG_WIDEST`` wide at most: laps
+  of 45-100 m with 10-30 % of the lap under 1.5 m radius, as DeepRacer's 55-77 m routes
+  (15-29 %); the other tracks of that length turn about half as often."""
+LONG_WIDEST = 1.07
+"""Widest ``"long"`` circuit [m]: the width of most DeepRacer routes."""
 TIGHT_WIDTH = (0.76, 0.9)
 """Width range of the tight tracks [m] (``technical``: 0.76 m)."""
 
 
-def _maybe_reversed(rng: np.random.Generator, spec: Any, reverse_share: float) -> Track:
-    """``spec`` as a ``Track``, on a ``reverse_share`` of draws driven clockwise."""
-    track = Track(spec.centre, spec.width_left, spec.width_right, name=spec.name,
-                  description=spec.description,
-                  source="training.tracks.random_training_track")
+def resample(rng: np.random.Generator, centre: FloatArray, widths: tuple[FloatArray, ...],
+             gap: tuple[float, float]) -> tuple[FloatArray, tuple[FloatArray, ...]]:
+    """The closed centre line ``centre`` (V, 2) [m] and its per-vertex ``widths`` re-drawn
+    through waypoints spaced as a DeepRacer file's: two gaps ``a <= b`` drawn in ``gap``
+    [m], then waypoint after waypoint along the lap each ``U(a, b)`` further on (linear
+    interpolation along the arc), the last one dropped when it would sit under ``a / 2``
+    from the first. Even gaps when ``a`` and ``b`` are close, uneven ones when not."""
+    closed = np.vstack([centre, centre[:1]])
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(closed, axis=0), axis=1))])
+    lap = float(arc[-1])
+    low, high = np.sort(rng.uniform(gap[0], gap[1], 2))
+    # Enough gaps to pass the lap's end for sure: the lap over the smallest gap, plus one.
+    steps = rng.uniform(low, high, int(np.ceil(lap / max(low, 1e-3))) + 1)
+    s = np.concatenate([[0.0], np.cumsum(steps)])
+    s = s[s < lap - 0.5 * low]
+    xy = np.column_stack([np.interp(s, arc, closed[:, k]) for k in range(2)])
+    return xy, tuple(np.interp(s, arc, np.append(w, w[0])) for w in widths)
+
+
+def _finished(rng: np.random.Generator, spec: Any, reverse_share: float,
+              waypoint_gap: tuple[float, float]) -> Track:
+    """``spec`` as a ``Track``: through waypoints ``waypoint_gap`` apart (``resample``) unless
+    that is the generator's own 5 cm, and on a ``reverse_share`` of draws driven clockwise."""
+    source = "training.tracks.random_training_track"
+    track = None
+    # No draw at the generator's own spacing: older settings give the same tracks. Chords of
+    # wide gaps cut the inside of a tight corner (by gap^2 / 8R), where a border can fold:
+    # such a draw is drawn again, and after 5 the track keeps its 5 cm line.
+    for _ in range(5 if waypoint_gap != (0.05, 0.05) else 0):
+        centre, widths = resample(rng, spec.centre, (spec.width_left, spec.width_right),
+                                  waypoint_gap)
+        try:
+            track = Track(centre, *widths, name=spec.name, description=spec.description,
+                          source=source)
+            break
+        except ValueError:
+            continue
+    if track is None:
+        track = Track(spec.centre, spec.width_left, spec.width_right, name=spec.name,
+                      description=spec.description, source=source)
     # As above: no draw without reversing, so that older settings give the same tracks.
     if reverse_share > 0 and rng.random() < reverse_share:
         track = track.reversed()
@@ -163,9 +228,16 @@ class ProceduralTracks:
     narrowest: float = 0.76
     """Low end of every width range [m], the catalogue's 0.76 by default; DeepRacer's
     ``Oval_track`` narrows to 0.61 m."""
+    widest: float = 1.07
+    """High end of the width range of the tracks that are not tight or circuits [m], the
+    catalogue's 1.07 by default; DeepRacer's routes are 0.6-1.97 m wide."""
+    waypoint_gap: tuple[float, float] = (0.05, 0.05)
+    """``(low, high)`` spacing of every track's waypoints [m] (``resample``): DeepRacer's files
+    put them 0.06-0.98 m apart, evenly on most routes; the default, the generator's own 5 cm,
+    re-draws nothing."""
     circuit_corners: tuple[str, ...] = ("arcs",)
     """How the circuits are drawn (``CIRCUIT_STYLES``: ``"arcs"``, ``"bspline"``,
-    ``"hairpins"``); one of them drawn per circuit when several are given."""
+    ``"hairpins"``, ``"long"``); one of them drawn per circuit when several are given."""
 
     def __post_init__(self) -> None:
         for name, unit in (("every", "iterations"), ("tracks", "random tracks raced at once")):
@@ -193,6 +265,13 @@ class ProceduralTracks:
         if not 0.5 <= self.narrowest <= TIGHT_WIDTH[1]:
             raise ValueError(f"[procedural] narrowest must be in [0.5, {TIGHT_WIDTH[1]}] m, got "
                              f"{self.narrowest!r}")
+        if not self.narrowest <= self.widest <= 2.5:
+            raise ValueError(f"[procedural] widest must be in [narrowest ({self.narrowest}), "
+                             f"2.5] m, got {self.widest!r}")
+        gap_low, gap_high = self.waypoint_gap
+        if not 0.02 <= gap_low <= gap_high <= 1.0:
+            raise ValueError(f"[procedural] waypoint_gap must be (low, high) with 0.02 <= low "
+                             f"<= high <= 1 m, got {self.waypoint_gap!r}")
         if not 0.4 <= self.min_radius:
             raise ValueError(f"[procedural] min_radius must be >= 0.4 m (above the narrowest "
                              f"half-width, 0.38 m), got {self.min_radius!r}")
@@ -201,4 +280,5 @@ class ProceduralTracks:
         """A random training track drawn from ``rng`` with these settings."""
         return random_training_track(rng, self.varying_share, self.min_radius, self.length,
                                      self.reverse_share, self.chicanes, self.tight_share,
-                                     self.circuit_share, self.circuit_corners, self.narrowest)
+                                     self.circuit_share, self.circuit_corners, self.narrowest,
+                                     self.widest, self.waypoint_gap)

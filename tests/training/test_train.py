@@ -571,7 +571,8 @@ class TestProcedural:
         kinds = {"(bspline)" in both.draw(rng).description for _ in range(8)}
         assert kinds == {True, False}
         with pytest.raises(ValueError, match=r"circuit_corners must be one or more of \['arcs', "
-                                             r"'bspline', 'hairpins'\], got \('round',\)"):
+                                             r"'bspline', 'hairpins', 'long'\], got "
+                                             r"\('round',\)"):
             ProceduralTracks(circuit_corners="round")
 
     def test_narrowest_lowers_every_width_range(self) -> None:
@@ -594,6 +595,84 @@ class TestProcedural:
         assert ProceduralTracks(narrowest=0.6).narrowest == 0.6
         with pytest.raises(ValueError, match=rf"narrowest must be in \[0.5, {TIGHT_WIDTH[1]}\] m"):
             ProceduralTracks(narrowest=0.4)
+
+    def test_the_route_options_leave_older_settings_drawing_the_same_tracks(self) -> None:
+        from h2h_racing.training.tracks import random_training_track
+
+        # Names (a hash of each track's geometry) drawn by the code before widest,
+        # waypoint_gap and the "long" circuits existed, with every other option on.
+        settings = dict(varying_share=0.5, tight_share=0.3, circuit_share=0.3,
+                        reverse_share=0.5, chicanes=(1, 3), narrowest=0.6)
+        before = ["random-4b65eadf", "random-02bd10e9-cw", "circuit-d6b3db39",
+                  "circuit-17d467cf", "random-710ce4f6", "random-d3bf51cd-cw"]
+        assert [random_training_track(np.random.default_rng(s), **settings).name
+                for s in range(6)] == before
+        assert [random_training_track(np.random.default_rng(s), circuit_share=1.0,
+                                      circuit_corners=("bspline", "hairpins")).name
+                for s in range(2)] == ["circuit-900a63e5", "circuit-038b6e01"]
+
+    def test_widest_raises_the_ordinary_tracks_width(self) -> None:
+        from h2h_racing.training.tracks import random_training_track
+
+        wide = [random_training_track(np.random.default_rng(s), narrowest=0.6, widest=2.0,
+                                      varying_share=0.5) for s in range(12)]
+        assert all(0.6 - 1e-9 <= float(t.width.min()) and float(t.width.max()) <= 2.0 + 1e-9
+                   for t in wide)
+        # Uniform in [0.6, 2]: P(all 12 tracks under 1.07 m) = (0.47 / 1.4)^12, about 2e-6.
+        assert any(float(t.width.max()) > 1.07 for t in wide)
+        # A wide track keeps corners of 1.2 x its half-width (0.6 x its width).
+        for track in wide:
+            radius = 1 / float(np.abs(track.curvature_vertex).max())
+            assert radius >= 0.6 * float(track.width.max()) * 0.98
+        with pytest.raises(ValueError, match=r"widest must be in \[narrowest \(0.8\), 2.5\] m, "
+                                             r"got 0.7"):
+            ProceduralTracks(narrowest=0.8, widest=0.7)
+
+    def test_long_circuits_turn_as_often_as_real_long_routes(self) -> None:
+        from h2h_racing.training.tracks import LONG_WIDEST, random_training_track
+
+        for seed in range(3):
+            track = random_training_track(np.random.default_rng(seed), circuit_share=1.0,
+                                          circuit_corners="long", narrowest=0.6)
+            assert "circuit" in track.name and 0.6 - 1e-9 <= float(track.width.min())
+            assert float(track.width.max()) <= LONG_WIDEST + 1e-9
+            # 8-20 cells of 2.5-5 m: laps of 45-100 m over 60 draws (the docstring's range);
+            # 10-30 % of the lap under 1.5 m radius is what the style is for.
+            assert 35.0 <= track.length <= 110.0
+            spans = np.diff(np.append(track.vertex_s, track.length))
+            tight = float(np.sum(spans * (np.abs(track.curvature_vertex) > 1 / 1.5)))
+            assert 0.05 <= tight / track.length <= 0.4
+
+    def test_waypoint_gap_redraws_the_centre_line_through_spaced_waypoints(self) -> None:
+        from h2h_racing.track.generator import random_track
+        from h2h_racing.training.tracks import resample
+
+        spec = random_track(np.random.default_rng(3), width=1.0)
+        widths = (spec.width_left, spec.width_right)
+        centre, (left, _) = resample(np.random.default_rng(0), spec.centre, widths, (0.2, 0.6))
+        closed = np.vstack([centre, centre[:1]])
+        gaps = np.linalg.norm(np.diff(closed, axis=0), axis=1)
+        # Chords of a smooth curve are a little shorter than its arcs; the closing gap is the
+        # remainder of the lap, at least half the smaller gap drawn (>= 0.1 m).
+        assert 0.19 <= gaps[:-1].min() and gaps[:-1].max() <= 0.6 + 1e-9
+        assert gaps[-1] >= 0.1 - 1e-9
+        # The waypoints lie on the 5 cm line: each within a sagitta (gap^2 / 8R, well under
+        # 1 mm at 5 cm over R >= 0.6 m) of its nearest fine vertex pair.
+        fine = np.asarray(spec.centre)
+        nearest = np.min(np.linalg.norm(centre[:, None] - fine[None], axis=2), axis=1)
+        assert nearest.max() <= 0.05
+        assert np.allclose(left, 0.5)
+        # Through ProceduralTracks: every track's waypoints are 0.3-0.5 m apart but for the
+        # closing one, or (rarely, a fold on a tight corner 5 times over) its 5 cm line.
+        rng = np.random.default_rng(1)
+        spaced = ProceduralTracks(waypoint_gap=(0.3, 0.5), tight_share=0.5)
+        for _ in range(4):
+            points = np.asarray(spaced.draw(rng).centre)
+            gaps = np.linalg.norm(np.diff(points, axis=0), axis=1)
+            assert gaps.max() <= 0.5 + 1e-9 and (gaps.min() >= 0.28 or gaps.max() < 0.06)
+        with pytest.raises(ValueError, match=r"waypoint_gap must be \(low, high\) with 0.02 <= "
+                                             r"low <= high <= 1 m, got \(0.5, 0.3\)"):
+            ProceduralTracks(waypoint_gap=(0.5, 0.3))
 
     def test_hairpin_circuits_bring_legs_as_close_as_technicals(self) -> None:
         from h2h_racing.track.metrics import min_clearance

@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# Issue 36's retraining: each generalist's "routes" step (its config's header) on 3 seeds, one
+# after another on one core, each measured on the 40 real routes (20 attempts or races per
+# route) and on the shipped tracks right after its training. Logs and JSON beside this file.
+#   bash experiments/routes/retrain/run.sh [ppo|obstacle|camera ...]
+set -u
+cd "$(dirname "$0")/../../.."
+export GIT_PYTHON_REFRESH=quiet
+out=experiments/routes/retrain
+routes=${ROUTES:-../shared/data/deepracer_tracks}
+declare -A iterations=([ppo]=600 [obstacle]=400 [camera]=120)
+declare -A policy=([ppo]=ppo_generalist [obstacle]=obstacle_generalist [camera]=camera_generalist)
+for kind in ${*:-ppo obstacle camera}; do
+  for seed in 0 1 2; do
+    name=${kind}_s$seed
+    run=runs/routes_$name
+    if [ ! -f $run/policy.pt ]; then
+      h2h-racing train --config ${policy[$kind]}/routes --init policies/trained/${policy[$kind]}/policy.pt \
+        --seed $seed --iterations ${iterations[$kind]} --out $run --overwrite > $out/$name.train.log 2>&1
+    fi
+    if [ $kind = obstacle ]; then
+      for race_type in object_avoidance head_to_bot; do
+        h2h-racing evaluate --policy $run/policy.pt --track $routes --race-type $race_type --races 20 \
+          --json $out/${name}_$race_type.json > $out/${name}_$race_type.txt 2>&1
+        h2h-racing evaluate --policy $run/policy.pt --track all --race-type $race_type --races 20 \
+          > $out/${name}_${race_type}_shipped.txt 2>&1
+      done
+    else
+      h2h-racing evaluate --policy $run/policy.pt --track $routes --episodes 20 \
+        --json $out/$name.json > $out/$name.txt 2>&1
+      h2h-racing evaluate --policy $run/policy.pt --track all --episodes 20 \
+        > $out/${name}_shipped.txt 2>&1
+    fi
+    echo "$(date +%T) $name done" >> $out/progress.log
+  done
+done
