@@ -8,7 +8,7 @@ cd "$(dirname "$0")/../../.."
 export GIT_PYTHON_REFRESH=quiet
 out=experiments/routes/retrain
 routes=${ROUTES:-../shared/data/deepracer_tracks}
-declare -A iterations=([ppo]=600 [obstacle]=400 [camera]=120)
+declare -A iterations=([ppo]=150 [obstacle]=400 [camera]=120)
 declare -A policy=([ppo]=ppo_generalist [obstacle]=obstacle_generalist [camera]=camera_generalist)
 for kind in ${*:-ppo obstacle camera}; do
   for seed in 0 1 2; do
