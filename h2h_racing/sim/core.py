@@ -56,7 +56,8 @@ from h2h_racing.sim.events import StepEvents
 from h2h_racing.sim.penalties import CorePenalties
 from h2h_racing.sim.starts import CoreSpawn, check_rolling
 from h2h_racing.sim.state import CoreState
-from h2h_racing.sim.tracks import ENV_GAP, PARK_MARGIN, CoreTracks, track_index_of
+from h2h_racing.sim.tracks import (ENV_GAP, PARK_MARGIN, CoreTracks, check_overlay,
+                                   track_index_of)
 from h2h_racing.sim.dynamics import SingleTrackModel
 from h2h_racing.sim.physics import PhysicsWorld
 from h2h_racing.track.shape import Track
@@ -78,10 +79,14 @@ class RaceCore(CoreTracks, CoreState, CoreSpawn, CorePenalties):
         track_index: The track of each copy, (E,) ints in [0, K); None splits the copies into
             K blocks in track order (copy e races track ``e * K // E``), and then needs
             ``num_envs >= K``.
+        overlay: Lay each track's copies out in the Space as a core of that track alone
+            with those copies would, over the other tracks' copies, which they never touch
+            (at most ``MAX_OVERLAID_TRACKS``; see ``CoreTracks``): then even pymunk's last
+            bits are a one-track core's. False: every copy a cell of its own.
     """
 
     def __init__(self, config: EnvConfig, track: Track | Sequence[Track], num_envs: int = 1,
-                 track_index: npt.ArrayLike | None = None) -> None:
+                 track_index: npt.ArrayLike | None = None, overlay: bool = False) -> None:
         if not isinstance(num_envs, int) or num_envs < 1:
             raise ValueError(f"num_envs must be an int >= 1, got {num_envs!r}")
         tracks = (track,) if isinstance(track, Track) else tuple(track)
@@ -92,6 +97,8 @@ class RaceCore(CoreTracks, CoreState, CoreSpawn, CorePenalties):
         """The track of each env copy, (E,): copy e races ``tracks[track_index[e]]``."""
         self.num_tracks = len(tracks)
         """Tracks K."""
+        self.overlay = check_overlay(overlay, self.num_tracks)
+        """Whether each track's copies are laid out as in a core of that track alone."""
         self.config = config
         self.rules = config.race_rules
         self.forward_tracks = tracks
@@ -201,7 +208,7 @@ class RaceCore(CoreTracks, CoreState, CoreSpawn, CorePenalties):
             car_size=(car.length, car.width), car_mass=car.mass, car_inertia=car.yaw_inertia,
             obstacle_size=(self.config.obstacle_length, self.config.obstacle_width),
             friction=car.body_friction, elasticity=car.body_elasticity,
-            num_bots=self.num_envs * self.num_bots)
+            num_bots=self.num_envs * self.num_bots, groups=self._collision_groups())
         self._allocate()
         self._spawn(np.ones(self.num_envs, dtype=bool), slots, start, rolling)
 

@@ -36,6 +36,24 @@ HASH_MIN_BODIES = 64
 """Spaces with at least this many bodies use the spatial hash instead of the tree."""
 _READ_SLACK = 1024
 """Spare floats in the read buffer beyond the bodies' state."""
+MAX_GROUPS = 32
+"""Collision groups a Space can keep apart: pymunk's collision categories are 32 bits."""
+
+
+def _group_filters(groups: IntArray | None, total: int) -> list[pymunk.ShapeFilter]:
+    """The shape filter of each body of ``groups`` (checked); empty for None. A body of group
+    g is in category g and touches only that category."""
+    if groups is None:
+        return []
+    groups = np.asarray(groups)
+    if (groups.shape != (total,) or groups.dtype.kind not in "iu"
+            or (total and not 0 <= groups.min() <= groups.max() < MAX_GROUPS)):
+        raise ValueError(f"groups must hold one collision group in [0, {MAX_GROUPS}) per body, "
+                         f"shape ({total},) ints, got {groups.dtype} values of shape "
+                         f"{groups.shape}")
+    made = {g: pymunk.ShapeFilter(categories=1 << g, mask=1 << g)
+            for g in np.unique(groups).tolist()}
+    return [made[g] for g in groups.tolist()]
 
 
 class PhysicsWorld:
@@ -53,6 +71,9 @@ class PhysicsWorld:
         elasticity: Restitution of contacts.
         num_bots: Total number of bot cars over all env copies (Q = E * B); they have the
             cars' box.
+        groups: Collision group of every body (cars, obstacles, bots), (C + O + Q,) ints in
+            [0, ``MAX_GROUPS``): bodies of different groups pass through each other (pymunk's
+            collision categories); None: every body may touch every other.
     """
 
     def __init__(
@@ -66,6 +87,7 @@ class PhysicsWorld:
         friction: float,
         elasticity: float,
         num_bots: int = 0,
+        groups: IntArray | None = None,
     ) -> None:
         self.num_cars = num_cars
         self.num_obstacles = num_obstacles
@@ -85,6 +107,7 @@ class PhysicsWorld:
             space.use_spatial_hash(HASH_CELL, 8 * total)
         self.space = space
         self._bodies: list[pymunk.Body] = []
+        filters = _group_filters(groups, total)
         half_l, half_w = 0.5 * car_size[0], 0.5 * car_size[1]
         car_box = [(-half_l, -half_w), (half_l, -half_w), (half_l, half_w), (-half_l, half_w)]
         for _ in range(num_cars):
@@ -92,6 +115,8 @@ class PhysicsWorld:
             shape = pymunk.Poly(body, car_box)
             shape.friction = friction
             shape.elasticity = elasticity
+            if filters:
+                shape.filter = filters[len(self._bodies)]
             space.add(body, shape)
             self._bodies.append(body)
         half_l, half_w = 0.5 * obstacle_size[0], 0.5 * obstacle_size[1]
@@ -102,6 +127,8 @@ class PhysicsWorld:
             shape = pymunk.Poly(body, outline)
             shape.friction = friction
             shape.elasticity = elasticity
+            if filters:
+                shape.filter = filters[len(self._bodies)]
             space.add(body, shape)
             self._bodies.append(body)
         ids = np.array([b.id for b in self._bodies], dtype=np.uint64)

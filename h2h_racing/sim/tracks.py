@@ -3,10 +3,15 @@ and views.
 
 A ``RaceCore`` races K tracks (K = 1: a one-track core, the same code): copy e races
 ``tracks[track_index[e]]``. ``CoreTracks`` holds the tracks (in the current driving direction),
-their tables for the compiled kernels (``TrackTables``), the copies' world layout (each copy a
-cell of the shared pymunk Space that holds any of the tracks), one random generator per track,
-and the one-track views of each track's copies (``core_view``). ``RaceCore`` (``h2h_racing.sim.core``)
-mixes it in.
+their tables for the compiled kernels (``TrackTables``), the copies' world layout, one random
+generator per track, and the one-track views of each track's copies (``sim.view``).
+``RaceCore`` (``h2h_racing.sim.core``) mixes it in.
+
+The layout: by default each copy is a cell of the shared pymunk Space that holds any of the
+tracks. Overlaid (``RaceCore(overlay=True)``), each track's copies lie where a core of that
+track alone would put them, over the other tracks' copies, and pymunk's collision categories
+keep the tracks apart (at most ``MAX_OVERLAID_TRACKS``): pymunk works in world coordinates, so
+only there are a copy's last bits those of its own core (``training.evaluate_tracks``).
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from h2h_racing.config.checks import check_seed
+from h2h_racing.sim.physics import MAX_GROUPS
 from h2h_racing.sim.view import CoreView
 from h2h_racing.track.shape import Track
 from h2h_racing.track.tables import TrackTables
@@ -32,6 +38,33 @@ ENV_GAP = 30.0
 PARK_MARGIN = 1.0
 """Parked cars wait this far beyond the track's bounding box [m] (inside the projection
 grid's margin, so projecting them stays cheap)."""
+
+
+MAX_OVERLAID_TRACKS = MAX_GROUPS
+"""Tracks an overlaid core (``RaceCore(overlay=True)``) can hold: its copies of different
+tracks share the Space's cells and are kept apart by pymunk's collision categories, of which
+there are 32."""
+
+
+def check_overlay(overlay: bool, num_tracks: int) -> bool:
+    """``overlay``, checked against the tracks' count."""
+    if not isinstance(overlay, bool):
+        raise TypeError(f"overlay must be True or False, got {overlay!r}")
+    if overlay and num_tracks > MAX_OVERLAID_TRACKS:
+        raise ValueError(f"overlay=True holds at most {MAX_OVERLAID_TRACKS} tracks (pymunk's "
+                         f"collision categories keep them apart), got {num_tracks}; split "
+                         f"them over several cores")
+    return overlay
+
+
+def grid_offsets(bounds: FloatArray, park_room: float, count: int) -> FloatArray:
+    """World offsets of ``count`` copies in a square grid of cells that each hold any of the
+    tracks of ``bounds`` ((K, 4): xmin, ymin, xmax, ymax) and its parked cars, (count, 2) [m]."""
+    pitch_x = (bounds[:, 2].max() - bounds[:, 0].min()) + park_room + ENV_GAP
+    pitch_y = (bounds[:, 3].max() - bounds[:, 1].min()) + ENV_GAP
+    cols = math.ceil(math.sqrt(count))
+    e = np.arange(count)
+    return np.stack([(e % cols) * pitch_x, (e // cols) * pitch_y], axis=1)
 
 
 def track_index_of(track_index: npt.ArrayLike | None, num_envs: int,
@@ -70,12 +103,16 @@ class CoreTracks:
         tracks = self.forward_tracks
         bounds = np.array([t.bounds for t in tracks])  # (K, 4): xmin, ymin, xmax, ymax
         park_room = PARK_MARGIN + 0.5 * self.num_cars
-        # Every copy gets a cell that holds any of the tracks: with one track, its own size.
-        pitch_x = (bounds[:, 2].max() - bounds[:, 0].min()) + park_room + ENV_GAP
-        pitch_y = (bounds[:, 3].max() - bounds[:, 1].min()) + ENV_GAP
-        cols = math.ceil(math.sqrt(self.num_envs))
-        e = np.arange(self.num_envs)
-        self.env_offset = np.stack([(e % cols) * pitch_x, (e // cols) * pitch_y], axis=1)
+        if self.overlay:
+            # Each track's copies where a core of that track alone puts them (pymunk works in
+            # world coordinates, so that is where its last bits are the same).
+            self.env_offset = np.empty((self.num_envs, 2))
+            for k, rows in self._track_rows():
+                count = len(range(self.num_envs)[rows]) if isinstance(rows, slice) else len(rows)
+                self.env_offset[rows] = grid_offsets(bounds[k:k + 1], park_room, count)
+        else:
+            # Every copy gets a cell that holds any of the tracks: with one track, its own size.
+            self.env_offset = grid_offsets(bounds, park_room, self.num_envs)
         """World offset of each env copy in the shared pymunk Space, shape (E, 2), metres."""
         k = np.arange(self.num_cars)
         park = np.stack([np.broadcast_to(bounds[:, 2:3] + PARK_MARGIN, (len(tracks), k.size)),
@@ -84,6 +121,17 @@ class CoreTracks:
         """Where each car waits, parked, beside its copy's track, (E, N, 2) [m]."""
         self.rngs = [np.random.default_rng() for _ in tracks]
         """One random generator per track: it draws for that track's copies."""
+
+    def _collision_groups(self) -> IntArray | None:
+        """Each body's collision group for ``PhysicsWorld`` (cars, obstacles, bots, copy-major):
+        its copy's track in an overlaid core, where copies of different tracks share cells;
+        None (every body may touch every other) otherwise."""
+        if not self.overlay:
+            return None
+        index = self.track_index
+        return np.concatenate([np.repeat(index, self.num_cars),
+                               np.repeat(index, self.num_obstacles),
+                               np.repeat(index, self.num_bots)])
 
     @property
     def track(self) -> Track:
@@ -125,6 +173,20 @@ class CoreTracks:
         (``seed(seed)``): one spawned from ``seed`` per track."""
         return [int(child.generate_state(1)[0])
                 for child in np.random.SeedSequence(seed).spawn(count)]
+
+    def seed_tracks(self, seeds: Sequence[int]) -> None:
+        """Seed each track's generator with its own seed, ``seeds[k]`` for track k (K ints), as
+        a core of that track alone seeded with it; ``reset()`` (no seed) then draws from them.
+        (``seed(seed)`` gives a core of K > 1 tracks ``track_seeds(seed, K)``.)"""
+        if len(seeds) != self.num_tracks:
+            raise ValueError(f"seed_tracks needs one seed per track ({self.num_tracks}), got "
+                             f"{len(seeds)}")
+        for value in seeds:
+            check_seed(value)
+            if value is None:
+                raise ValueError("seed_tracks needs a seed for every track, got None")
+        self.rngs = [np.random.default_rng(value) for value in seeds]
+        self.episodes[:] = 0
 
     def track_views(self) -> list[tuple[slice | IntArray, Any]]:
         """``(rows, view)`` of each track that some copy races, in track order: ``rows`` are
