@@ -18,6 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from h2h_racing.common.extras import missing_extra
+from h2h_racing.policies.trained_plain import plain_actor
 from h2h_racing.policies.weights import WeightsFileError, check_keys, load_weights
 from h2h_racing.training.limits import check_hidden_dims
 
@@ -156,7 +157,9 @@ class TrainedPolicy:
         self.name = name
         self.observations = payload["observations"]
         self.env_config: dict[str, Any] = payload["env_config"]
-        self._actor: Any = None
+        self._model: Any = None
+        self._example: dict[str, npt.NDArray[np.float32]] | None = None
+        self._forward: Any = None
         self._camera: Any = None
         self._lidar: Any = None
         self._lidar_rng: np.random.Generator | None = None
@@ -185,10 +188,24 @@ class TrainedPolicy:
             self._lidar = LidarSensor(_sensor_config(self.payload, "lidar", self.source),
                                       cfg.car, obstacle_size)
             self._lidar_rng = np.random.default_rng(LIDAR_NOISE_SEED)
-        if self._actor is None:
-            self._actor = self._build_actor(core)
+        if self._forward is None and self._model is None:
+            self._example = {k: v[:1] for k, v in self._observe(core, 0).items()}
+            self._forward = plain_actor(self.payload, self._example)
+            if self._forward is None:
+                # Not a plain MLP, or weights that do not fit (rsl-rl's model says why, now).
+                self._model = self._build_actor(self._example)
 
-    def _build_actor(self, core: RaceCore) -> Any:
+    @property
+    def _actor(self) -> Any:
+        """The actor as rsl-rl's model (``MLPModel`` or ``CNNModel``), built on first use
+        after ``reset`` (export reads it; a plain MLP acts without it: ``plain_actor``)."""
+        if self._model is None:
+            if self._example is None:
+                raise RuntimeError(f"{self.source}: reset the driver on a core first")
+            self._model = self._build_actor(self._example)
+        return self._model
+
+    def _build_actor(self, example: dict[str, npt.NDArray[np.float32]]) -> Any:
         try:
             import torch
             from rsl_rl.models import CNNModel, MLPModel
@@ -198,8 +215,8 @@ class TrainedPolicy:
 
         actor_cfg = dict(self.payload["actor_cfg"])
         model_class = {"MLPModel": MLPModel, "CNNModel": CNNModel}[actor_cfg.pop("class_name")]
-        example = TensorDict({key: torch.as_tensor(value[:1])
-                              for key, value in self._observe(core, 0).items()}, batch_size=[1])
+        example = TensorDict({key: torch.as_tensor(value[:1]) for key, value in example.items()},
+                             batch_size=[1])
         try:
             model = model_class(example, {"actor": list(self.payload["obs_groups"])}, "actor",
                                 2, **actor_cfg)
@@ -234,13 +251,17 @@ class TrainedPolicy:
     def act(self, core: RaceCore, car: int) -> npt.NDArray[np.float32]:
         """Return the actions of car ``car`` in every env copy, (E, 2) in [-1, 1]."""
         import torch
-        from tensordict import TensorDict
 
-        if self._actor is None:
+        if self._forward is None and self._model is None:
             self.reset(core)
         obs = self._observe(core, car)
-        batch = TensorDict({k: torch.from_numpy(v) for k, v in obs.items()},
-                           batch_size=[core.num_envs])
         with torch.inference_mode():
-            action = self._actor(batch)
+            if self._forward is not None:
+                action = self._forward(obs)
+            else:
+                from tensordict import TensorDict
+
+                action = self._actor(TensorDict({k: torch.from_numpy(v) for k, v in obs.items()},
+                                                batch_size=[core.num_envs]))
         return np.clip(action.numpy(), -1.0, 1.0).astype(np.float32)
+
