@@ -67,18 +67,35 @@ def evaluate(driver: Any, track: str | Track, episodes: int = 20, seed: int = 0,
 
     if isinstance(driver, str):
         driver = make_driver(driver, seed=seed)
-    rules = RaceRules.preset("time_trial", "training")
     loaded = track if isinstance(track, Track) else load_track(track)
-    env_config = EnvConfig(track=loaded.name if isinstance(track, Track) else track, num_cars=1,
-                           race_type="time_trial", rules=rules, **config)
+    env_config = lap_config(loaded.name if isinstance(track, Track) else track, **config)
     core = RaceCore(env_config, loaded, num_envs=episodes)
-    core.reset(seed=seed, start=np.arange(episodes) * (loaded.length / episodes))
+    core.reset(seed=seed, start=lap_starts(loaded, episodes))
     driver.reset(core)
     while not core.done.all():
         core.step(*env_config.commands(np.asarray(driver.act(core, 0))[:, None, :]))
+    return lap_figures(driver, core)
+
+
+def lap_config(track: str, **config: Any) -> EnvConfig:
+    """``evaluate``'s config: one car, time-trial training rules (an infraction ends the
+    attempt), ``config``'s further fields."""
+    rules = RaceRules.preset("time_trial", "training")
+    return EnvConfig(track=track, num_cars=1, race_type="time_trial", rules=rules, **config)
+
+
+def lap_starts(track: Track, episodes: int) -> np.ndarray:
+    """``evaluate``'s start points: ``k * L / episodes`` for k = 0 .. episodes - 1 [m]."""
+    return np.arange(episodes) * (track.length / episodes)
+
+
+def lap_figures(driver: Any, core: Any) -> Evaluation:
+    """``driver``'s figures over the one-lap attempts of ``core`` (a core of one track, or
+    one track's view of a core), once every attempt is done."""
+    episodes = core.num_envs
     laps = [t for env in range(episodes) for t in core.lap_times[env][0][:1]]
     return Evaluation(
-        driver=getattr(driver, "name", type(driver).__name__), track=loaded.name,
+        driver=getattr(driver, "name", type(driver).__name__), track=core.track.name,
         episodes=episodes, lap_completion=float(core.finished[:, 0].mean()),
         mean_lap_time=float(np.mean(laps)) if laps else float("inf"),
         best_lap_time=float(np.min(laps)) if laps else float("inf"),
@@ -152,8 +169,6 @@ def evaluate_races(driver: Any, track: str | Track, race_type: str, races: int =
         ValueError: For another race type, fewer than one race or lap, or a track the race
             type's boxes or bots do not fit on.
     """
-    import dataclasses
-
     from h2h_racing.policies import make_driver
 
     if race_type not in RACE_TYPE_CHOICES:
@@ -165,24 +180,40 @@ def evaluate_races(driver: Any, track: str | Track, race_type: str, races: int =
     if isinstance(driver, str):
         driver = make_driver(driver, seed=seed)
     loaded = track if isinstance(track, Track) else load_track(track)
-    # The preset's 180 s is DeepRacer's limit for its 3 laps: a minute a lap.
-    rules = dataclasses.replace(RaceRules.preset(race_type), laps=laps, time_limit=60.0 * laps)
-    # DeepRacer re-draws the boxes of every object-avoidance episode; run_race's default
-    # keeps them fixed, which would make every race the same one.
-    extra = {"randomize_obstacles": True} if race_type == "object_avoidance" else {}
-    env_config = EnvConfig(track=loaded.name if isinstance(track, Track) else track, num_cars=1,
-                           race_type=race_type, rules=rules, **extra)
+    env_config = race_config(loaded.name if isinstance(track, Track) else track, race_type,
+                             laps)
     core = RaceCore(env_config, loaded, num_envs=races)
     core.reset(seed=seed)
     driver.reset(core)
     while not core.done.all():
         core.step(*env_config.commands(np.asarray(driver.act(core, 0))[:, None, :]))
+    return race_figures(driver, core)
+
+
+def race_config(track: str, race_type: str, laps: int) -> EnvConfig:
+    """``evaluate_races``' config: one car, the race type's rules with ``laps`` laps and a
+    minute a lap, boxes re-drawn every race in ``object_avoidance``."""
+    import dataclasses
+
+    # The preset's 180 s is DeepRacer's limit for its 3 laps: a minute a lap.
+    rules = dataclasses.replace(RaceRules.preset(race_type), laps=laps, time_limit=60.0 * laps)
+    # DeepRacer re-draws the boxes of every object-avoidance episode; run_race's default
+    # keeps them fixed, which would make every race the same one.
+    extra = {"randomize_obstacles": True} if race_type == "object_avoidance" else {}
+    return EnvConfig(track=track, num_cars=1, race_type=race_type, rules=rules, **extra)
+
+
+def race_figures(driver: Any, core: Any) -> RaceEvaluation:
+    """``driver``'s figures over the races of ``core`` (a core of one track, or one track's
+    view of a core), once every race is done."""
     finished = core.finished[:, 0]
     times = core.finish_time[finished, 0]
+    rules = core.rules
     return RaceEvaluation(
-        driver=getattr(driver, "name", type(driver).__name__), track=loaded.name,
-        race_type=race_type, races=races, laps=laps, finished=int(finished.sum()),
-        laps_done=int(np.minimum(core.laps[:, 0], laps).sum()),
+        driver=getattr(driver, "name", type(driver).__name__), track=core.track.name,
+        race_type=core.config.race_type, races=core.num_envs, laps=rules.laps,
+        finished=int(finished.sum()),
+        laps_done=int(np.minimum(core.laps[:, 0], rules.laps).sum()),
         crashes=int(core.crashes[:, 0].sum()), resets=int(core.resets[:, 0].sum()),
         off_tracks=int(core.off_tracks[:, 0].sum()),
         mean_race_time=float(times.mean()) if times.size else float("inf"))

@@ -5,10 +5,12 @@ Each route runs what ``evaluate`` runs on one track: one-lap attempts alone from
 spread round the lap (``training.evaluate.evaluate``), beside a baseline driver on the same
 starts (``racing_line`` by default) and the route's minimum-time reference lap
 (``policies.racing_line.reference_lap_time``, an estimate); or races of a race type with
-DeepRacer's boxes or bots (``training.evaluate.evaluate_races``). Routes run in worker
-processes (``run_routes``), each with its own seeded drivers and core, so the figures do not
-depend on how many workers there are. A file that cannot be loaded or raced gives a
-``RouteFailure`` (its name and why) and the other routes go on.
+DeepRacer's boxes or bots (``training.evaluate.evaluate_races``). The routes race together
+as the copies of one batched core (``training.evaluate_tracks``: up to 32 drivers on their
+routes in a core), each with its own seeded drivers, its copies laid out as in a core of its
+own: the figures of a route are, to the bit, those of ``evaluate`` on it alone, whatever the
+other routes, the batches or the worker processes (``run_routes``). A file that cannot be
+loaded or raced gives a ``RouteFailure`` (its name and why) and the other routes go on.
 
 The tables and the summary are in ``evaluate_routes_report``.
 """
@@ -16,16 +18,23 @@ The tables and the summary are in ``evaluate_routes_report``.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
+import dataclasses
+import math
 import multiprocessing
 import os
-from collections.abc import Callable, Sequence
+import sys
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Union
+from typing import TYPE_CHECKING, Union
 
 import numpy as np
 
 from h2h_racing.training.evaluate import Evaluation, RaceEvaluation
+
+if TYPE_CHECKING:
+    from h2h_racing.track.shape import Track
 
 TRACK_SUFFIXES = (".json", ".npy", ".csv")
 """Suffixes of the files a folder's routes are read from (``h2h_racing.track.io``)."""
@@ -228,6 +237,90 @@ def evaluate_route(task: RouteTask) -> RouteResult:
         return RouteFailure(route, source, str(err) or type(err).__name__)
 
 
+def evaluate_batch(tasks: Sequence[RouteTask],
+                   done: Callable[[int, RouteResult], None] | None = None) -> list[RouteResult]:
+    """Evaluate ``tasks`` (the same settings, different routes) as ``evaluate_route`` would,
+    their drivers racing as the copies of batched cores (``training.evaluate_tracks``); return
+    the results in ``tasks``' order.
+
+    ``done`` gets each task's index and result as the route finishes. A file that cannot be
+    loaded fails alone; a core that cannot be built or raced (a route the race type's boxes or
+    bots do not fit on) sends the routes it had not finished to ``evaluate_route`` one by one,
+    which tells which failed and why.
+    """
+    from h2h_racing.track.io import load_track
+    from h2h_racing.training.evaluate_tracks import Run, race_runs
+
+    results: list[RouteResult | None] = [None] * len(tasks)
+
+    def record(index: int, result: RouteResult) -> None:
+        results[index] = result
+        if done is not None:
+            done(index, result)
+
+    loaded: dict[int, Track] = {}
+    for index, task in enumerate(tasks):
+        try:
+            loaded[index] = load_track(task.source.source)
+        except (ValueError, OSError) as err:
+            record(index, RouteFailure(task.source.route, task.source.source,
+                                       str(err) or type(err).__name__))
+    first = tasks[0] if tasks else None
+    order = list(loaded)
+    try:
+        if first is not None and first.race_type != "time_trial":
+            def raced(k: int, figures: RaceEvaluation) -> None:
+                index = order[k]
+                task = tasks[index]
+                record(index, RouteRaces(task.source.route, task.source.source, figures,
+                                         float(loaded[index].length)))
+
+            race_runs([Run(first.policy, loaded[i], first.seed) for i in order],
+                      first.race_type, first.races, first.laps, raced)
+        elif first is not None:
+            _lap_batch(tasks, loaded, order, record)
+    except (ValueError, OSError):
+        for index in order:
+            if results[index] is None:
+                record(index, evaluate_route(tasks[index]))
+    return [r for r in results if r is not None]
+
+
+def _lap_batch(tasks: Sequence[RouteTask], loaded: dict[int, Track], order: list[int],
+               record: Callable[[int, RouteResult], None]) -> None:
+    """The time trials of ``evaluate_batch``: the policy's and the baseline's runs of every
+    loaded route (``order``) in batched cores; a route's row as its last run is done."""
+    from h2h_racing.config.env import EnvConfig
+    from h2h_racing.policies import reference_lap_time
+    from h2h_racing.training.evaluate_tracks import Run, lap_runs
+
+    first = tasks[0]
+    same = first.baseline == first.policy
+    drivers = [first.policy] + ([first.baseline] if first.baseline and not same else [])
+    runs = [Run(spec, loaded[index], first.seed) for index in order for spec in drivers]
+    figures: dict[int, dict[str, Evaluation]] = {index: {} for index in order}
+    config = EnvConfig()
+
+    def run_done(k: int, evaluation: Evaluation) -> None:
+        index = order[k // len(drivers)]
+        figures[index][runs[k].driver] = evaluation
+        if len(figures[index]) < len(drivers):
+            return
+        task, track = tasks[index], loaded[index]
+        policy = figures[index][first.policy]
+        baseline = policy if same else figures[index].get(first.baseline or "")
+        try:
+            reference = reference_lap_time(track, config.car, config.max_speed)
+        except (ValueError, OSError) as err:
+            record(index, RouteFailure(task.source.route, task.source.source,
+                                       str(err) or type(err).__name__))
+            return
+        record(index, RouteLaps(task.source.route, task.source.source, policy, baseline,
+                                float(reference), float(track.length)))
+
+    lap_runs(runs, first.episodes, run_done)
+
+
 def default_jobs(routes: int) -> int:
     """Worker processes by default: one per core this process may use, at most one per
     route."""
@@ -235,14 +328,52 @@ def default_jobs(routes: int) -> int:
     return max(1, min(cores or 1, routes))
 
 
-def _start_worker(parent: int, death_signal: bool, threads: int) -> None:
-    """A pool worker's first act: die with the parent, and keep torch to its share of the
-    cores (``jobs`` workers with a torch thread per core each would fight over them)."""
+def _start_worker(parent: int, death_signal: bool) -> None:
+    """A pool worker's first act: die with the parent, and keep torch to one thread (a
+    route's network sees a batch of a few copies, which one thread serves best, and the
+    thread count changes a network's last bits)."""
     from h2h_racing.common.lifeline import die_with_parent
 
     die_with_parent(parent, death_signal)
     # Read by torch's OpenMP pool when torch is first imported (by make_driver, later).
-    os.environ["OMP_NUM_THREADS"] = str(threads)
+    os.environ["OMP_NUM_THREADS"] = "1"
+
+
+@contextlib.contextmanager
+def one_torch_thread() -> Iterator[None]:
+    """Run torch on one thread inside, as the worker processes do, if it is imported (a
+    trained driver's spec imports it when it is checked; scripted drivers do not use it)."""
+    torch = sys.modules.get("torch")
+    if torch is None:
+        yield
+        return
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(threads)
+
+
+def _batch_jobs(tasks: Sequence[RouteTask], workers: int) -> list[list[int]]:
+    """The tasks (their indices) of each ``evaluate_batch`` call: consecutive tasks of the same
+    settings, in ``2 * workers`` parts of about equal size (so that workers share the routes
+    and report as they go)."""
+    groups: list[list[int]] = []
+    for index, task in enumerate(tasks):
+        if groups and dataclasses.replace(tasks[groups[-1][0]], source=task.source) == task:
+            groups[-1].append(index)
+        else:
+            groups.append([index])
+    if workers == 1:
+        return groups
+    size = max(1, math.ceil(len(tasks) / (2 * workers)))
+    return [group[a:a + size] for group in groups for a in range(0, len(group), size)]
+
+
+def _evaluate_indexed(tasks: Sequence[RouteTask]) -> list[RouteResult]:
+    """``evaluate_batch`` in a worker (a module-level function: the pool pickles it)."""
+    return evaluate_batch(tasks)
 
 
 def run_routes(tasks: Sequence[RouteTask], jobs: int,
@@ -252,8 +383,9 @@ def run_routes(tasks: Sequence[RouteTask], jobs: int,
     Args:
         tasks: The routes and settings (``RouteTask``).
         jobs: Worker processes (started with ``spawn``: no inherited torch or OpenMP threads,
-            which ``fork`` can deadlock on; they die with this process); 1 runs every task in
-            this process.
+            which ``fork`` can deadlock on; they die with this process), each evaluating
+            batches of routes in turn (``evaluate_batch``); 1 runs every task in this process.
+            The figures are the same for any number.
         done: Called with each task's index and result as it finishes (in any order).
 
     Raises:
@@ -269,24 +401,28 @@ def run_routes(tasks: Sequence[RouteTask], jobs: int,
             done(index, result)
 
     if jobs == 1 or len(tasks) <= 1:
-        for index, task in enumerate(tasks):
-            record(index, evaluate_route(task))
+        with one_torch_thread():
+            for batch in _batch_jobs(tasks, 1):
+                evaluate_batch([tasks[i] for i in batch],
+                               lambda k, result, batch=batch: record(batch[k], result))
         return [r for r in results if r is not None]
     from h2h_racing.common.lifeline import started_from_main_thread
 
-    workers = min(jobs, len(tasks))
-    cores = default_jobs(10**6)
+    batches = _batch_jobs(tasks, jobs)
+    workers = min(jobs, len(batches))
     pool = cf.ProcessPoolExecutor(
         workers, mp_context=multiprocessing.get_context("spawn"), initializer=_start_worker,
-        initargs=(os.getpid(), started_from_main_thread(), max(1, cores // workers)))
+        initargs=(os.getpid(), started_from_main_thread()))
     try:
-        futures = {pool.submit(evaluate_route, task): index for index, task in enumerate(tasks)}
+        futures = {pool.submit(_evaluate_indexed, [tasks[i] for i in batch]): batch
+                   for batch in batches}
         pending = set(futures)
         while pending:
             # A timed wait: an untimed one can hold off Ctrl-C until a route finishes.
             finished, pending = cf.wait(pending, timeout=0.25, return_when=cf.FIRST_COMPLETED)
-            for future in sorted(finished, key=futures.__getitem__):
-                record(futures[future], future.result())
+            for future in sorted(finished, key=lambda f: futures[f][0]):
+                for index, result in zip(futures[future], future.result()):
+                    record(index, result)
     except BaseException:
         # Ctrl-C or a route's crash: drop the queued routes, and stop the running ones rather
         # than wait minutes for them (the pool's exit handler joins its workers).
