@@ -25,9 +25,11 @@ Pure numpy; results are cached per ``Track`` object (tracks are immutable).
 
 from __future__ import annotations
 
+import functools
 import math
 import weakref
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -41,8 +43,9 @@ FloatArray = npt.NDArray[np.float64]
 GRAVITY = 9.81
 """Standard gravity [m/s^2]."""
 
-_CACHE: weakref.WeakKeyDictionary[Track, dict[tuple[float, ...], RaceLine]] = (
+_CACHE: weakref.WeakKeyDictionary[Track, dict[tuple[Any, ...], Any]] = (
     weakref.WeakKeyDictionary())
+"""Per track: its racing lines by setting, and its minimum-curvature paths (read-only)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,19 +73,31 @@ class RaceLine:
     lap_time: float
     track_length: float
 
-    def _interp(self, values: FloatArray, s: FloatArray) -> FloatArray:
-        """Periodic linear interpolation of a per-grid-point quantity at arc positions ``s``."""
-        grid = np.append(self.s, self.track_length)
-        closed = np.append(values, values[0])
-        return np.interp(np.remainder(s, self.track_length), grid, closed)
+    def _interp(self, values: FloatArray, s: FloatArray,
+                closed: FloatArray | None = None) -> FloatArray:
+        """Periodic linear interpolation of a per-grid-point quantity at arc positions ``s``
+        (``closed``: ``values`` with its first value appended, if at hand)."""
+        if closed is None:
+            closed = np.append(values, values[0])
+        return np.interp(np.remainder(s, self.track_length), self._grid, closed)
+
+    @functools.cached_property
+    def _grid(self) -> FloatArray:
+        """``s`` closed by the lap length (the drivers interpolate every step: built once)."""
+        return np.append(self.s, self.track_length)
+
+    @functools.cached_property
+    def _closed(self) -> dict[str, FloatArray]:
+        """``d`` and ``speed`` closed by their first value."""
+        return {"d": np.append(self.d, self.d[0]), "speed": np.append(self.speed, self.speed[0])}
 
     def offset_at(self, s: FloatArray) -> FloatArray:
         """Return the line's lateral offset [m] at centre-line arc positions ``s`` (any shape)."""
-        return self._interp(self.d, s)
+        return self._interp(self.d, s, self._closed["d"])
 
     def speed_at(self, s: FloatArray) -> FloatArray:
         """Return the profile speed [m/s] at centre-line arc positions ``s`` (any shape)."""
-        return self._interp(self.speed, s)
+        return self._interp(self.speed, s, self._closed["speed"])
 
     def point_at(self, s: FloatArray) -> FloatArray:
         """Return the line's world points at arc positions ``s``, shape (..., 2) [m]."""
@@ -293,8 +308,15 @@ def compute_race_line(track: Track, car: CarParams, v_max: float, *, ds: float =
     per_track = _CACHE.setdefault(track, {})
     if key in per_track:
         return per_track[key]
-    s_coarse, d_coarse = min_curvature_offsets(track, ds=qp_ds, margin=margin,
-                                               peak_emphasis=peak_emphasis)
+    # The path is the same for every speed profile (reference_lap_time's and the driver's):
+    # optimised once per track and setting.
+    path_key = ("offsets", qp_ds, margin, peak_emphasis)
+    if path_key not in per_track:
+        path = min_curvature_offsets(track, ds=qp_ds, margin=margin, peak_emphasis=peak_emphasis)
+        for arr in path:
+            arr.flags.writeable = False
+        per_track[path_key] = path
+    s_coarse, d_coarse = per_track[path_key]
     k = max(8, round(track.length / ds))
     s = np.arange(k) * (track.length / k)
     d = np.interp(s, np.append(s_coarse, track.length), np.append(d_coarse, d_coarse[0]))
