@@ -14,37 +14,8 @@ both, in the folder layout of DeepRacer-for-Cloud (DRfC), one folder per car::
 so that ``deepracer.logs.DeepRacerLog("ROOT/car_0")`` loads it unchanged. Each logged env copy
 is one DRfC rollout *worker*.
 
-Simtrace columns (simapp ``metrics/constants.py StepMetrics``, in this order): ``episode,
-steps, X, Y, yaw, steer, throttle, action, reward, done, all_wheels_on_track, progress,
-closest_waypoint, track_len, tstamp, episode_status, pause_duration, obstacle_crash_counter,
-wall_clock``. Their values follow simapp's ``rollout_agent_ctrl.py``:
-
-- ``X``/``Y`` is the model point 0.14 m ahead of the car, ``yaw`` its heading in degrees,
-  ``progress`` and ``all_wheels_on_track`` as in the reward ``params``
-  (``h2h_racing.deepracer.params``); ``closest_waypoint`` is the Euclidean-nearer of the two
-  waypoints that bracket the model point along the centre line;
-- ``steer`` [deg] and ``throttle`` [m/s] are the commanded action; ``action`` is the discrete
-  action's index, or ``[steer throttle]`` for continuous actions;
-- ``tstamp`` is simulated time [s] on a clock that runs on across the worker's episodes, as
-  Gazebo's does; ``wall_clock`` is the host's Unix time [s];
-- every episode starts with DeepRacer's ``prepare`` row: the car where it starts, before its
-  first action, with reward 0 and ``steps`` 1.0; the row of the first action has ``steps`` 2.0,
-  as in DeepRacer-for-Cloud's simtraces (deepracer-utils' sample logs). In races, where every
-  lap is a trial, ``steps`` runs on across the trials of the stream, as in DRfC's continuous
-  evaluations (the trial after a row with ``steps`` 222.0 starts at 223.0, with no new
-  ``prepare`` row);
-- ``steps`` and the reward function's ``params["steps"]``: DeepRacer counts its ``prepare``
-  step, does not call the reward function on it and logs ``params["steps"]`` unchanged, so
-  its reward first sees 2.0. This env calls the reward function on every action from the
-  first one, which sees ``params["steps"]`` 1.0 (``h2h_racing.deepracer.params``; Capstone-style
-  functions need it). A training row therefore has ``steps = params["steps"] + 1``; replaying
-  a reward function over our simtrace (deepracer-utils' ``NewRewardUtils``) sees ``steps``
-  one higher than our env gave it;
-- ``episode_status`` is ``prepare``, ``in_progress``, ``lap_complete``, ``off_track``,
-  ``crashed`` (an at-fault contact that counts as an infraction), ``reversed``,
-  ``immobilized``, ``time_up`` or ``pause`` (frozen by a race penalty; ``pause_duration`` then
-  holds the seconds of penalty left); ``done`` is True on the row that ends the episode;
-- ``obstacle_crash_counter`` counts the car's at-fault contacts so far in the episode.
+The files' columns, values and metrics entries are described in
+``h2h_racing.deepracer.simtrace_files``.
 
 Episodes: a training episode ends when the car's episode ends. In races (``rules="race"``),
 as in DeepRacer's continuous evaluations, every lap is an episode (a *trial*): the row of a lap
@@ -52,16 +23,6 @@ completion has ``done`` True, and the next lap starts a new episode whose progre
 the line. Training simtraces are split into iterations of ``episodes_per_iteration`` episodes
 per worker (DeepRacer's ``num_episodes_between_training``), which keeps deepracer-utils'
 ``unique_episode`` numbering right.
-
-Metrics JSON (simapp ``metrics/s3_metrics.py``): ``{"metrics": [...], "best_model_metric":
-"progress"}`` with, per training episode, ``reward_score`` (rounded total reward),
-``metric_time``, ``start_time``, ``elapsed_time_in_milliseconds`` (simulated ms),
-``episode`` (from 1), ``trial`` (episode within the iteration, from 1), ``phase``,
-``completion_percentage`` (int progress) and ``episode_status`` as a label (``"Lap
-complete"``, ``"Off track"``, ...); per evaluation trial ``completion_percentage``,
-``metric_time``, ``start_time``, ``elapsed_time_in_milliseconds``, ``episode_status``,
-``crash_count``, ``immobilized_count``, ``off_track_count``, ``reversed_count``,
-``reset_count`` and ``trial``.
 
 Evaluation episodes in the training metrics: between training iterations DeepRacer's first
 rollout worker runs ``MIN_EVAL_TRIALS`` (5) evaluation episodes and appends them to its
@@ -77,10 +38,8 @@ episodes. A writer with ``root=None`` writes no files and keeps its metrics entr
 from __future__ import annotations
 
 import json
-import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
@@ -90,49 +49,21 @@ import numpy.typing as npt
 
 from h2h_racing.config.env import EnvConfig
 from h2h_racing.deepracer.params import ParamsBuilder
-from h2h_racing.common.json_files import read_json_file
+from h2h_racing.deepracer.simtrace_files import (SIMTRACE_COLUMNS, STATUS_LABELS, Stream,
+                                                 flush_rows, metadata_of, write_metrics)
 from h2h_racing.track.shape import Track
 
 if TYPE_CHECKING:
     from h2h_racing.sim.core import RaceCore, StepEvents
 
+__all__ = ["MAX_WORKERS", "SIMTRACE_COLUMNS", "STATUS_LABELS", "SimtraceWriter"]
+
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
-
-SIMTRACE_COLUMNS: tuple[str, ...] = (
-    "episode", "steps", "X", "Y", "yaw", "steer", "throttle", "action", "reward", "done",
-    "all_wheels_on_track", "progress", "closest_waypoint", "track_len", "tstamp",
-    "episode_status", "pause_duration", "obstacle_crash_counter", "wall_clock",
-)
-"""Simtrace CSV columns, in DeepRacer's order (simapp ``StepMetrics``)."""
-
-STATUS_LABELS: dict[str, str] = {
-    "lap_complete": "Lap complete", "crashed": "Crashed", "off_track": "Off track",
-    "immobilized": "Immobilized", "in_progress": "In progress", "pause": "Pause",
-    "reversed": "Reversed", "park": "Park", "time_up": "Time Up", "prepare": "Prepare",
-}
-"""``episode_status`` values and their metrics-JSON labels (simapp
-``EPISODE_STATUS_LABEL_MAP``)."""
 
 MAX_WORKERS = 10
 """deepracer-utils reads a worker's folder name as one character, so at most 10 env copies
 are logged as workers 0-9."""
-
-_SENSOR_NAMES = {"camera": "FRONT_FACING_CAMERA", "lidar": "LIDAR"}
-
-
-@dataclass
-class _Stream:
-    """One car of one logged env copy: its open episode and its finished ones."""
-
-    csv_dir: Path | None
-    metrics_path: Path | None
-    rows: list[str] = field(default_factory=list)
-    metrics: list[dict[str, Any]] = field(default_factory=list)
-    iteration: int = 0
-    trials: int = 0
-    written: set[int] = field(default_factory=set)
-
 
 class SimtraceWriter:
     """Write DeepRacer simtrace CSV and metrics JSON for some cars of some env copies.
@@ -199,14 +130,14 @@ class SimtraceWriter:
         self._track_len = repr(self._geometry.track_length)
         self._crash_infraction = config.race_rules.crash_is_infraction
         stamp = datetime.now(timezone.utc).strftime("%Y%m%d%H%M%S")
-        metadata = _metadata(config, model_metadata) if root is not None else {}
+        metadata = metadata_of(config, model_metadata) if root is not None else {}
         w, c = len(envs), len(cars)
-        self._streams: list[list[_Stream]] = []
+        self._streams: list[list[Stream]] = []
         for wi in range(w):
             row = []
             for car in cars:
                 if self.root is None:
-                    row.append(_Stream(csv_dir=None, metrics_path=None))
+                    row.append(Stream(csv_dir=None, metrics_path=None))
                     continue
                 folder = self.root / agents[car]
                 (folder / "model").mkdir(parents=True, exist_ok=True)
@@ -222,7 +153,7 @@ class SimtraceWriter:
                     metrics = folder / "metrics" / (f"TrainingMetrics_{wi}.json" if wi
                                                     else "TrainingMetrics.json")
                 csv_dir.mkdir(parents=True, exist_ok=True)
-                row.append(_Stream(csv_dir=csv_dir, metrics_path=metrics))
+                row.append(Stream(csv_dir=csv_dir, metrics_path=metrics))
             self._streams.append(row)
         self.paths = ([] if self.root is None else
                       sorted({str(self.root / agents[car]) for car in cars}))
@@ -397,7 +328,7 @@ class SimtraceWriter:
                     "episode_status": str(entry["episode_status"]),
                 })
                 start += length
-            self._write_metrics(stream)
+            write_metrics(stream)
         self._clock[0] += sum(elapsed) / 1000.0
         self._due = False
 
@@ -430,8 +361,8 @@ class SimtraceWriter:
         for wi, row in enumerate(self._streams):
             for ci, stream in enumerate(row):
                 if stream.rows:
-                    self._flush_rows(stream)
-                self._write_metrics(stream)
+                    flush_rows(stream)
+                write_metrics(stream)
         self._active[:] = False
         self._closed = True
 
@@ -515,7 +446,7 @@ class SimtraceWriter:
         end_time = self._clock + self._last_time
         for wi, ci in np.argwhere(done).tolist():
             stream = self._streams[wi][ci]
-            self._flush_rows(stream)
+            flush_rows(stream)
             start, end = float(self._start_time[wi, ci]), float(end_time[wi])
             label = STATUS_LABELS[str(status[wi, ci])]
             progress = float(self._prev_progress[wi, ci])
@@ -545,51 +476,8 @@ class SimtraceWriter:
                     "trial": stream.trials,
                 })
             if self.phase == "training" and stream.trials == self.episodes_per_iteration:
-                self._write_metrics(stream)
+                write_metrics(stream)
                 stream.iteration += 1
                 stream.trials = 0
                 self._due = self._due or wi == 0
         self._active &= ~done
-
-    def _flush_rows(self, stream: _Stream) -> None:
-        if stream.csv_dir is None:
-            stream.rows.clear()
-            return
-        path = stream.csv_dir / f"{stream.iteration}-iteration.csv"
-        new = stream.iteration not in stream.written
-        with path.open("w" if new else "a") as f:
-            if new:
-                f.write(",".join(SIMTRACE_COLUMNS) + "\n")
-            f.write("\n".join(stream.rows) + "\n")
-        stream.written.add(stream.iteration)
-        stream.rows.clear()
-
-    def _write_metrics(self, stream: _Stream) -> None:
-        if stream.metrics_path is None:
-            return
-        body = {"metrics": stream.metrics, "best_model_metric": "progress"}
-        stream.metrics_path.write_text(json.dumps(body))
-
-
-def _metadata(config: EnvConfig, source: str | Path | dict[str, Any] | None) -> dict[str, Any]:
-    """The ``model_metadata.json`` to store with the logs."""
-    if isinstance(source, dict):
-        return source
-    if source is not None:
-        data = read_json_file(Path(source), "model metadata (pass a model_metadata.json file "
-                                             "or None)")
-        if not isinstance(data, dict):
-            raise ValueError(f"{source}: model metadata must be a JSON object, got "
-                             f"{type(data).__name__}")
-        return data
-    if config.action_type == "discrete":
-        space: Any = [{"steering_angle": float(s), "speed": float(v), "index": i}
-                      for i, (s, v) in enumerate(config.discrete_actions)]
-    else:
-        low, high = config.steer_range
-        space = {"steering_angle": {"low": math.degrees(low), "high": math.degrees(high)},
-                 "speed": {"low": config.min_speed, "high": config.max_speed}}
-    return {"action_space": space, "action_space_type": config.action_type,
-            "sensor": [_SENSOR_NAMES.get(s, s) for s in config.sensors],
-            "neural_network": "h2h_racing", "training_algorithm": "clipped_ppo",
-            "version": "5"}
