@@ -60,8 +60,9 @@ class RaceResult:
     video_codec: str = ""
     """Its codec (a name in ``VIDEO_CODECS``)."""
     viewer: Any = field(default=None, repr=False, compare=False)
-    """With ``serve=True``: the ``h2h_racing.viz.recorder.RaceRecorder`` still serving the web viewer
-    (``viewer.viewer_url``); ``viewer.serve_until(seconds)`` keeps it up, then closes it."""
+    """With ``serve=True``: the ``h2h_racing.viz.recorder.RaceRecorder`` still serving the web
+    viewer (``viewer.viewer_url``); ``viewer.serve_until(seconds)`` keeps it up, then closes
+    it."""
 
     @property
     def table(self) -> str:

@@ -1,6 +1,6 @@
-"""What a league run shows while it runs: one progress line (``h2h_racing.common.progress``) over its
-time budget with the round's phase and that phase's own count, the round lines, and the same
-lines in ``league.log`` beside ``league.sqlite``.
+"""What a league run shows while it runs: one progress line (``h2h_racing.common.progress``)
+over its time budget with the round's phase and that phase's own count, the round lines, and
+the same lines in ``league.log`` beside ``league.sqlite``.
 
 The line reads, for example::
 

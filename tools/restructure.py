@@ -266,8 +266,9 @@ def shim(old: str, new: str) -> str:
         f'"""Deprecated: ``h2h_racing.{old}`` is now ``{target}``;\nthe old path goes in the '
         f'next release."""\n\n'
         "import importlib\nimport sys\nimport warnings\n\n"
-        f'warnings.warn("h2h_racing.{old} is now {target}; the old path goes in the next "\n'
-        f'              "release: import {target}", DeprecationWarning, stacklevel=2)\n'
+        f'warnings.warn("h2h_racing.{old} is now {target}; "\n'
+        f'              "the old path goes in the next release: import {target}",\n'
+        "              DeprecationWarning, stacklevel=2)\n"
         "# The old name gives the new module itself: monkeypatches, private names and pickles\n"
         "# keep working.\n"
         f'sys.modules[__name__] = importlib.import_module("{target}")\n')

@@ -1,7 +1,8 @@
 """The training subcommands of ``h2h-racing``: ``evaluate`` and ``export`` here, ``train`` in
 ``h2h_racing.training.cli_train``.
 
-They need the ``train`` extra only when they run; ``h2h_racing.cli.command`` adds them to its parser.
+They need the ``train`` extra only when they run; ``h2h_racing.cli.command`` adds them to its
+parser.
 """
 
 from __future__ import annotations

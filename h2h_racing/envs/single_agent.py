@@ -14,9 +14,10 @@ cars; the opponents are scripted drivers (``racing_line``, ``pure_pursuit``, ``b
 every step while they race. The grid is drawn from the seed, so the learner starts in any
 slot.
 
-Spaces, reward and info are the learner's own in the PettingZoo env (see ``h2h_racing.envs.parallel``):
-``Box(-1, 1, (2,))`` or ``Discrete(K)`` actions, the state vector or a ``Dict`` of sensors,
-the built-in or DeepRacer reward, and ``info`` = the learner's per-car info.
+Spaces, reward and info are the learner's own in the PettingZoo env (see
+``h2h_racing.envs.parallel``): ``Box(-1, 1, (2,))`` or ``Discrete(K)`` actions, the state vector
+or a ``Dict`` of sensors, the built-in or DeepRacer reward, and ``info`` = the learner's per-car
+info.
 
 The episode ends for the learner as Gymnasium users expect: ``terminated`` when its car
 finishes the lap target or retires (an infraction under ``rules="training"``), ``truncated``

@@ -3,7 +3,8 @@
 The per-car fields the compiled kernels read and write every step are rows of a few blocks
 (``race.CAR_*``, ``race.PAIR_*``), and each field is a view into its block. ``CoreState``
 allocates them, cuts the views, and pickles only the blocks (re-cutting the views on arrival,
-which a plain pickle would cut off their blocks). ``RaceCore`` (``h2h_racing.sim.core``) mixes it in.
+which a plain pickle would cut off their blocks). ``RaceCore`` (``h2h_racing.sim.core``) mixes
+it in.
 """
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""Geometry of a closed polyline for :class:`h2h_racing.track.shape.Track`: arc positions, headings, normals, and checks.
+"""Geometry of a closed polyline for :class:`h2h_racing.track.shape.Track`: arc positions,
+headings, normals, and checks.
 
 :func:`_centre_geometry` derives what a track needs from its centre line (segment lengths, arc
 positions, unwrapped headings, vertex normals, area); :func:`_check_no_fold` and

@@ -40,7 +40,8 @@ MAX_TRACK_FILE_BYTES = 32 * 2**20
 """Largest track file read [bytes]: a JSON file of :data:`h2h_racing.track.shape.MAX_TRACK_VERTICES`
 vertices written by :func:`save_track` is about 9 MB, a CSV about 6 MB, a route ``.npy`` 5 MB."""
 RANDOM_PREFIX = "random:"
-"""``load_track("random:<seed>")`` generates a track with :func:`h2h_racing.track.generator.random_track`."""
+"""``load_track("random:<seed>")`` generates a track with
+:func:`h2h_racing.track.generator.random_track`."""
 
 
 def catalogue_dir() -> Path:
@@ -72,9 +73,9 @@ def load_track(
     """Load a track from the catalogue or from a file.
 
     Args:
-        name_or_path: A catalogue name (see :func:`list_tracks`), ``"random:<seed>"`` for a procedurally
-            generated track (:func:`h2h_racing.track.generator.random_track` with that integer seed), or a path
-            ending in ``.json``, ``.npy`` or ``.csv``.
+        name_or_path: A catalogue name (see :func:`list_tracks`), ``"random:<seed>"`` for a
+            procedurally generated track (:func:`h2h_racing.track.generator.random_track` with
+            that integer seed), or a path ending in ``.json``, ``.npy`` or ``.csv``.
         scale: Optional scaling about the origin: a float scales lengths and widths alike; a pair
             ``(length_scale, width_scale)`` scales coordinates and widths separately (real circuits need
             this: Catalunya's 4.65 km, ~11 m wide lap becomes DeepRacer's 60 m, 0.9 m wide one with about

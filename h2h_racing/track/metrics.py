@@ -1,7 +1,8 @@
 """Measurements and checks of sampled closed curves: length, area, curvature, normals, borders, crossings.
 
-Pure numpy. The procedural generator (:mod:`h2h_racing.track.generator`), ``tracks/design.py`` and the tests
-use these to check a track: :func:`measure_track` gathers them into a :class:`TrackMetrics`.
+Pure numpy. The procedural generator (:mod:`h2h_racing.track.generator`), ``tracks/design.py``
+and the tests use these to check a track: :func:`measure_track` gathers them into a
+:class:`TrackMetrics`.
 """
 
 from __future__ import annotations

@@ -10,9 +10,10 @@ questions the simulation core asks every step, vectorised over any leading shape
 * :meth:`Track.point_at`, :meth:`Track.heading_at`, :meth:`Track.curvature_at`,
   :meth:`Track.half_widths_at`, :meth:`Track.lane_point` go the other way.
 
-This module is pure numpy (no pymunk, cv2 or pettingzoo); loaders live in :mod:`h2h_racing.track.io`,
-the polyline geometry and self-crossing checks in :mod:`h2h_racing.track.geometry`, and the projection
-lookup grid with its compiled kernel in :mod:`h2h_racing.track.projection`.
+This module is pure numpy (no pymunk, cv2 or pettingzoo); loaders live in
+:mod:`h2h_racing.track.io`, the polyline geometry and self-crossing checks in
+:mod:`h2h_racing.track.geometry`, and the projection lookup grid with its compiled kernels in
+:mod:`h2h_racing.track.projection`.
 
 **Frenet inverse.** The nearest-point map onto a polyline is not smooth: on the outside of a vertex a whole
 wedge of points projects onto the vertex, and on the inside ``s`` jumps by ``2|d|tan(turn/2)`` across the
@@ -69,9 +70,9 @@ def _as_xy(name: str, value: Any, where: str) -> FloatArray:
 class Track:
     """An immutable closed race track (DeepRacer scale, metres).
 
-    Construct it directly from arrays or through :func:`h2h_racing.track.io.load_track`. All arrays are
-    float64 copies flagged read-only. The constructor validates the geometry and raises ``ValueError``
-    naming the source, the problem, the vertex index and its coordinates.
+    Construct it directly from arrays or through :func:`h2h_racing.track.io.load_track`. All
+    arrays are float64 copies flagged read-only. The constructor validates the geometry and
+    raises ``ValueError`` naming the source, the problem, the vertex index and its coordinates.
 
     Attributes:
         centre: Centre-line vertices, shape (M, 2) [m], driving order, closed loop with the first vertex NOT
@@ -109,8 +110,9 @@ class Track:
         m = len(centre)
         if m > MAX_TRACK_VERTICES:
             raise ValueError(
-                f"{where}: the centre line has {m} vertices; at most {MAX_TRACK_VERTICES} are allowed "
-                "(h2h_racing.track.shape.MAX_TRACK_VERTICES). Thin the file out, e.g. keep every k-th row."
+                f"{where}: the centre line has {m} vertices; at most {MAX_TRACK_VERTICES} are "
+                "allowed (h2h_racing.track.shape.MAX_TRACK_VERTICES). Thin the file out, e.g. "
+                "keep every k-th row."
             )
         wl = self._as_widths("width_left", self.width_left, m)
         wr = self._as_widths("width_right", self.width_right, m)

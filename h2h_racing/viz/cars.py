@@ -39,8 +39,8 @@ def _box_corners(centre: npt.NDArray[np.float64], yaw: npt.NDArray[np.float64],
 
 
 class CarStreams:
-    """Per-car logging of :class:`h2h_racing.viz.recorder.RaceRecorder` (a mixin: the recorder sets the
-    attributes below in its ``__init__``)."""
+    """Per-car logging of :class:`h2h_racing.viz.recorder.RaceRecorder` (a mixin: the recorder
+    sets the attributes below in its ``__init__``)."""
 
     _rr: Any
     rec: Any

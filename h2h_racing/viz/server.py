@@ -1,8 +1,8 @@
 """rerun's web viewer server for ``race --serve``: free ports, the server process and its stop.
 
 The server is rerun's own binary (found by :func:`h2h_racing.viz.recorder.rerun_binary`), started
-listening on 127.0.0.1 only. This module never imports rerun: :class:`h2h_racing.viz.recorder.RaceRecorder`
-hands it the binary's locator.
+listening on 127.0.0.1 only. This module never imports rerun:
+:class:`h2h_racing.viz.recorder.RaceRecorder` hands it the binary's locator.
 """
 
 from __future__ import annotations
