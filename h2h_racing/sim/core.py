@@ -35,11 +35,11 @@ the copies of a one-track core). A one-track core is the case K = 1. Drivers wri
 track drive the copies of track k through ``track_views()``: each view reads the core's arrays
 of those copies as a one-track core.
 
-The core is split by concept: its arrays and their pickling in ``core_state``, reset-time
-placement in ``core_spawn``, infractions, re-placement and parking in ``core_penalties``, the
-step's report (``StepEvents``, re-exported here) in ``core_events``, the tracks of the copies
-(their tables, layout, generators and views) in ``core_tracks``, and the one-track views of a
-core of several tracks in ``core_view``.
+The core is split by concept: its arrays and their pickling in ``sim.state``, reset-time
+placement in ``sim.starts``, infractions, re-placement and parking in ``sim.penalties``, the
+step's report (``StepEvents``, re-exported here) in ``sim.events``, the tracks of the copies
+(their tables, layout, generators and views) in ``sim.tracks``, and the one-track views of a
+core of several tracks in ``sim.view``.
 """
 
 from __future__ import annotations
@@ -192,7 +192,7 @@ class RaceCore(CoreTracks, CoreState, CoreSpawn, CorePenalties):
                 direction (``track`` is ``forward_track.reversed()``, same start line).
             rolling: Start speed of every car [m/s], in [0, ``car.max_speed``]: 0 is a standing
                 start; above 0 a rolling start, each car moving straight along its heading
-                with that speed commanded (``core_spawn.check_rolling`` checks it).
+                with that speed commanded (``sim.starts.check_rolling`` checks it).
         """
         # Checked before anything is rebuilt, so a bad seed or speed leaves the core as it was.
         check_seed(seed)
