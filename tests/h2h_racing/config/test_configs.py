@@ -9,7 +9,7 @@ import pytest
 
 from h2h_racing.config.shipped import resolve_config, shipped_configs
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 
 
 def test_shipped_league_configs_are_the_product_ones() -> None:

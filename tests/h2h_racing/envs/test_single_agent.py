@@ -17,7 +17,7 @@ import h2h_racing
 from h2h_racing.policies import make_driver
 from h2h_racing.envs.single_agent import SingleAgentRaceEnv
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def _make(**kwargs):

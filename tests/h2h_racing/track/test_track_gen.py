@@ -25,7 +25,7 @@ from h2h_racing.track.generator import (
     smooth_closed_curve,
 )
 
-TRACKS_DIR = Path(__file__).resolve().parents[2] / "tracks"
+TRACKS_DIR = Path(__file__).resolve().parents[3] / "tracks"
 CATALOGUE = ("oval", "technical", "speedway", "grand_loop", "kidney", "varying", "hairpin_valley")
 REQUIRED_KEYS = {"format", "name", "description", "x", "y", "width_left", "width_right"}
 NUM_RANDOM_SEEDS = 50

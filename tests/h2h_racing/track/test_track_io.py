@@ -19,7 +19,7 @@ from h2h_racing.track.io import (
     save_track,
 )
 
-SHARED = Path(__file__).resolve().parents[2] / ".." / "shared" / "data"
+SHARED = Path(__file__).resolve().parents[3] / ".." / "shared" / "data"
 DEEPRACER = SHARED / "deepracer_tracks"
 CATALUNYA = SHARED / "centerline_csv" / "Catalunya.csv"
 
