@@ -3,12 +3,16 @@
 with wins, crashes caused and off-tracks over ``races`` races per track and opponent (seed 7).
 
     python experiments/planner/sweep_settings.py '{"follow_gap": [0.1, 0.2]}' 10
+
+``OPPONENTS=racing_line,blocker`` and ``TRACKS=oval,random:0,...`` (environment) choose the
+opponents and tracks; the defaults are all three and the shipped tracks.
 """
 
 from __future__ import annotations
 
 import itertools
 import json
+import os
 import sys
 import time
 
@@ -19,7 +23,7 @@ from h2h_racing.policies.planner import Planner
 from h2h_racing.track.io import list_tracks, load_track
 from h2h_racing.training.evaluate import grid_slots, race_batch
 
-OPPONENTS = ("racing_line", "blocker", "pure_pursuit")
+OPPONENTS = tuple(os.environ.get("OPPONENTS", "racing_line,blocker,pure_pursuit").split(","))
 
 
 def main() -> None:
@@ -31,7 +35,8 @@ def main() -> None:
         cells, start = [], time.time()
         for opponent in OPPONENTS:
             total = np.zeros(3, dtype=np.int64)
-            for name in list_tracks():
+            names = os.environ["TRACKS"].split(",") if "TRACKS" in os.environ else list_tracks()
+            for name in names:
                 track = load_track(name)
                 starts = np.random.default_rng(7).uniform(0.0, track.length, races)
                 core = race_batch(name, track, [Planner(**settings), make_driver(opponent)], 3,
