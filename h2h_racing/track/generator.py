@@ -1,12 +1,12 @@
 """Procedural and hand-designed track geometry: smooth closed curves, checks and random tracks.
 
-Pure numpy (no cv2, no pymunk), so it sits at the bottom of the layering rule next to ``track.py``.
+Pure numpy (no cv2, no pymunk), so it sits at the bottom of the layering rule beside ``track/shape.py``.
 
 * :func:`smooth_closed_curve` turns a handful of control points into a C2-smooth closed centre line
   sampled at uniform arc-length spacing (periodic interpolating cubic spline).
-* :func:`curvature`, :func:`find_crossings`, :func:`border_polylines` and :func:`measure_track` are the
-  shared geometric checks used by the generator, by ``tracks/design.py`` and by the tests; they live in
-  :mod:`h2h_racing.track.metrics` and are importable from here too.
+* :func:`curvature`, :func:`find_crossings`, :func:`border_polylines` and :func:`measure_track`
+  are the shared geometric checks used by the generator, by ``tracks/design.py`` and by the tests;
+  they live in :mod:`h2h_racing.track.metrics` and are importable from here too.
 * :func:`random_track` draws a seeded random closed track for training generalisation.
 
 Results are plain numpy arrays wrapped in the frozen :class:`TrackSpec`, so that ``h2h_racing.track.shape.Track``
