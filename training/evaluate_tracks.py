@@ -133,12 +133,14 @@ def _race_all(runs: Sequence[Run], copies: int,
                  for k, (rows, view) in zip(group, core.track_views())]
         for _, view, driver in parts:
             driver.reset(view)
+        actors = _actors(core, [runs[k] for k in group], parts, copies)
         actions = np.zeros((core.num_envs, 2))
         pending = list(range(len(parts)))
         while pending:
-            for i in pending:
-                rows, view, driver = parts[i]
-                actions[rows] = driver.act(view, 0)
+            racing = set(pending)
+            for members, act in actors:
+                if members & racing:
+                    act(actions)
             core.step(*config.commands(actions[:, None, :]))
             running = []
             for i in pending:
@@ -152,6 +154,45 @@ def _race_all(runs: Sequence[Run], copies: int,
                     running.append(i)
             pending = running
     return results
+
+
+def _actors(core: RaceCore, runs: Sequence[Run], parts: list[tuple[Any, Any, Any]],
+            copies: int) -> list[tuple[set[int], Callable[[np.ndarray], None]]]:
+    """Who acts each step: the runs of one driver spec together where a batched driver
+    gives each copy its own driver's bits (``training.evaluate_batched``), else each run's
+    driver on its view; each with the runs (indices into ``parts``) it acts for.
+
+    A batched driver acts for its runs' copies as long as one of them races (the copies of
+    a done run are stepped on with the others; their figures were read as it ended)."""
+    from h2h_racing.training.evaluate_batched import batched_driver
+
+    by_spec: dict[Any, list[int]] = {}
+    for i, run in enumerate(runs):
+        by_spec.setdefault(run.driver if isinstance(run.driver, str) else id(run.driver),
+                           []).append(i)
+    every = np.arange(core.num_envs)
+    actors: list[tuple[set[int], Callable[[np.ndarray], None]]] = []
+    for members in by_spec.values():
+        rows = [every[parts[i][0]] for i in members]
+        batched = None
+        if all(len(r) == copies for r in rows):
+            batched = batched_driver([parts[i][2] for i in members],
+                                     [parts[i][1] for i in members], core, copies)
+        if batched is not None:
+            union = np.concatenate(rows)
+
+            def act(actions: np.ndarray, batched: Any = batched, union: Any = union) -> None:
+                actions[union] = batched.act(core, union, 0)
+
+            actors.append((set(members), act))
+            continue
+        for i in members:
+            def act_one(actions: np.ndarray, part: tuple[Any, Any, Any] = parts[i]) -> None:
+                rows, view, driver = part
+                actions[rows] = driver.act(view, 0)
+
+            actors.append(({i}, act_one))
+    return actors
 
 
 def _driver(run: Run) -> Any:
