@@ -4,6 +4,8 @@ commit, in the same run; asserts nothing.
     python benchmarks/bench_routes.py --old 5838405                 # 3 repeats, --jobs 1 and 2
     python benchmarks/bench_routes.py --old 5838405 --old-one-thread --repeats 3
     python benchmarks/bench_routes.py --old 5838405 --quick         # a smoke run (4 routes)
+    python benchmarks/bench_routes.py --old 5838405 --old-one-thread --no-old-default \
+        --also 9b23472                # one torch thread only, and the commit before a change
 
 What is timed: the whole command, as a user runs it (``python -m h2h_racing.cli.command
 evaluate --policy P --track FOLDER --episodes 10 --jobs J --json ...``), process start to exit:
@@ -123,6 +125,12 @@ def main() -> None:
                         help="runs of every variant per --jobs (default: 3)")
     parser.add_argument("--old-one-thread", action="store_true",
                         help="also time the old commit with OMP_NUM_THREADS=1 (default: off)")
+    parser.add_argument("--no-old-default", action="store_true",
+                        help="leave out the old commit as it runs by default (its --jobs 1 runs "
+                             "torch on every core: minutes on a loaded machine; default: off)")
+    parser.add_argument("--also", action="append", default=[], metavar="REF",
+                        help="another commit to time as it runs, e.g. the one before a change "
+                             "(repeatable; default: none)")
     parser.add_argument("--quick", action="store_true",
                         help="a smoke run: 4 routes, one repeat, --jobs 1 (default: off)")
     args = parser.parse_args()
@@ -141,8 +149,12 @@ def main() -> None:
                 (routes / path.name).symlink_to(path)
             args.repeats, args.jobs = 1, [1]
         old = old_tree(args.old, tmp / "old")
-        variants = [{"name": "new", "env": {}},
-                    {"name": f"old ({args.old})", "env": {"PYTHONPATH": str(old)}}]
+        variants = [{"name": "new", "env": {}}]
+        if not args.no_old_default:
+            variants.append({"name": f"old ({args.old})", "env": {"PYTHONPATH": str(old)}})
+        for number, ref in enumerate(args.also):
+            tree = old_tree(ref, tmp / f"also{number}")
+            variants.append({"name": f"also ({ref})", "env": {"PYTHONPATH": str(tree)}})
         if args.old_one_thread:
             variants.append({"name": f"old ({args.old}), one torch thread",
                              "env": {"PYTHONPATH": str(old), "OMP_NUM_THREADS": "1"}})
