@@ -81,19 +81,26 @@ def test_batched_driver_acts_as_each_runs_driver(spec: str) -> None:
     assert core.speed[every[views[0][0]], 0].max() > 2 * core.speed[every[views[2][0]], 0].max()
 
 
-def test_policy_batches_only_where_its_rows_keep_their_bits() -> None:
+SHIPPED_MLPS = ("ppo_generalist", "obstacle_generalist", "league_racer",
+                "racing_line_student")
+
+
+@pytest.mark.parametrize("name", SHIPPED_MLPS)
+def test_policy_batches_only_where_its_rows_keep_their_bits(name: str) -> None:
     """``invariant`` says what a forward pass of the runs' rows does to a row: checked here
-    against the network itself at 2 and 5 rows a run (on this machine's MKL, batches of 1-3
-    rows give other bits than larger ones, so 2 rows a run stay one call per run)."""
+    against the network itself at 1-5 and 10 rows a run, on every shipped MLP policy (on
+    this machine's MKL, batches of 1-3 rows give other bits than larger ones, so such runs
+    stay one call per run)."""
     import torch
 
     core, views = _core(5)
-    driver = make_driver("ppo_generalist", seed=0)
+    driver = make_driver(name, seed=0)
     driver.reset(views[0][1])
+    assert BatchedPolicy.fits([driver])
     policy = BatchedPolicy(driver)
     rng = np.random.default_rng(0)
     with one_torch_thread(), torch.inference_mode():
-        for block in (2, 5):
+        for block in (1, 2, 3, 4, 5, 10):
             obs = {k: rng.normal(size=(3 * block, v.shape[1])).astype(np.float32)
                    for k, v in driver._example.items()}
             whole = policy.forward(obs).numpy()
