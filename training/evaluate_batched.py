@@ -109,7 +109,8 @@ class BatchedPolicy:
     def fits(drivers: Sequence[Any]) -> bool:
         """Whether ``drivers`` (reset on their views) are trained MLPs acting by plain torch
         on state observations only."""
-        return all(isinstance(d, TrainedPolicy) and d._forward is not None
+        # The class itself: a subclass may act otherwise.
+        return all(type(d) is TrainedPolicy and d._forward is not None
                    and d._camera is None and d._lidar is None for d in drivers)
 
     def invariant(self, block: int, runs: int, seed: int = 0) -> bool:
