@@ -1,21 +1,29 @@
 #!/usr/bin/env bash
-# Issue 36's retraining: each generalist's "routes" step (its config's header) on 3 seeds, one
-# after another on one core, each measured on the 40 real routes (20 attempts or races per
+# Issue 36's retraining: each generalist's "routes" step (its config's header; ppo_generalist's
+# "routes_imitate" first) on 3 seeds, one after another, each measured on the 40 real routes (20 attempts or races per
 # route) and on the shipped tracks right after its training. Logs and JSON beside this file.
-#   bash experiments/routes/retrain/run.sh [ppo|obstacle|camera ...]
+#   [SEEDS="0 1 2"] bash experiments/routes/retrain/run.sh [ppo|obstacle|camera ...]
 set -u
 cd "$(dirname "$0")/../../.."
 export GIT_PYTHON_REFRESH=quiet
 out=experiments/routes/retrain
 routes=${ROUTES:-../shared/data/deepracer_tracks}
-declare -A iterations=([ppo]=150 [obstacle]=400 [camera]=120)
+declare -A iterations=([ppo]=600 [obstacle]=400 [camera]=80)
 declare -A policy=([ppo]=ppo_generalist [obstacle]=obstacle_generalist [camera]=camera_generalist)
 for kind in ${*:-ppo obstacle camera}; do
-  for seed in 0 1 2; do
+  for seed in ${SEEDS:-0 1 2}; do
     name=${kind}_s$seed
     run=runs/routes_$name
+    init=policies/trained/${policy[$kind]}/policy.pt
+    if [ $kind = ppo ]; then  # two steps: routes_imitate (DAgger from the planner), then PPO
+      init=runs/routes_imitate_s$seed/policy.pt
+      if [ ! -f $init ]; then
+        h2h-racing train --config ppo_generalist/routes_imitate --init policies/trained/ppo_generalist/policy.pt \
+          --seed $seed --iterations 150 --out runs/routes_imitate_s$seed --overwrite > $out/${name}_imitate.train.log 2>&1
+      fi
+    fi
     if [ ! -f $run/policy.pt ]; then
-      h2h-racing train --config ${policy[$kind]}/routes --init policies/trained/${policy[$kind]}/policy.pt \
+      h2h-racing train --config ${policy[$kind]}/routes --init $init \
         --seed $seed --iterations ${iterations[$kind]} --out $run --overwrite > $out/$name.train.log 2>&1
     fi
     if [ $kind = obstacle ]; then
