@@ -10,6 +10,9 @@ out=experiments/routes/retrain
 routes=${ROUTES:-../shared/data/deepracer_tracks}
 declare -A iterations=([ppo]=600 [obstacle]=400 [camera]=80)
 declare -A policy=([ppo]=ppo_generalist [obstacle]=obstacle_generalist [camera]=camera_generalist)
+# The configs of the steps that did not ship live here (obstacle/, camera_pace/).
+declare -A config=([ppo]=ppo_generalist/routes [obstacle]=$out/obstacle/obstacle_routes.toml
+                   [camera]=$out/camera_pace/camera_pace.toml)
 for kind in ${*:-ppo obstacle camera}; do
   for seed in ${SEEDS:-0 1 2}; do
     name=${kind}_s$seed
@@ -23,7 +26,7 @@ for kind in ${*:-ppo obstacle camera}; do
       fi
     fi
     if [ ! -f $run/policy.pt ]; then
-      h2h-racing train --config ${policy[$kind]}/routes --init $init \
+      h2h-racing train --config ${config[$kind]} --init $init \
         --seed $seed --iterations ${iterations[$kind]} --out $run --overwrite > $out/$name.train.log 2>&1
     fi
     if [ $kind = obstacle ]; then

@@ -87,7 +87,8 @@ def main() -> None:
     print()
     print("| run | object avoidance: routes on target | head to bot: routes on target |")
     print("|---|---|---|")
-    for seed in ("shipped/obstacle_generalist", "obstacle_s0", "obstacle_s1", "obstacle_s2"):
+    for seed in ("shipped/obstacle_generalist", "obstacle/obstacle_s0", "obstacle/obstacle_s1",
+                 "obstacle/obstacle_s2"):
         row = obstacles(seed)
         if row:
             print(row)
