@@ -59,7 +59,7 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
         width = float(rng.uniform(narrowest, TIGHT_WIDTH[1]))
         style = styles[int(rng.integers(len(styles)))] if len(styles) > 1 else styles[0]
         settings = dict(CIRCUIT_STYLES[style])
-        if style == "long":
+        if style == "long" and TIGHT_WIDTH[1] > narrowest:
             # Stretched to the style's own range: narrowest..LONG_WIDEST from the same draw.
             width = narrowest + (width - narrowest) * (LONG_WIDEST - narrowest) / (
                 TIGHT_WIDTH[1] - narrowest)
