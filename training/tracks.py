@@ -5,6 +5,7 @@ tracks and of kart-style circuits of tight corners, each drawn from one generato
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -59,9 +60,10 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
         width = float(rng.uniform(narrowest, TIGHT_WIDTH[1]))
         style = styles[int(rng.integers(len(styles)))] if len(styles) > 1 else styles[0]
         settings = dict(CIRCUIT_STYLES[style])
-        if style == "long" and TIGHT_WIDTH[1] > narrowest:
-            # Stretched to the style's own range: narrowest..LONG_WIDEST from the same draw.
-            width = narrowest + (width - narrowest) * (LONG_WIDEST - narrowest) / (
+        top = settings.pop("widest", TIGHT_WIDTH[1])
+        if top != TIGHT_WIDTH[1] and TIGHT_WIDTH[1] > narrowest:
+            # Stretched to the style's own range, narrowest..top, from the same draw.
+            width = narrowest + (width - narrowest) * (top - narrowest) / (
                 TIGHT_WIDTH[1] - narrowest)
         settings.setdefault("corner_radius", (max(0.5, 0.6 * width), 0.7))
         settings["corner_radius"] = (max(settings["corner_radius"][0], 0.6 * width),
@@ -72,34 +74,38 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
         width: float | tuple[float, float] = float(rng.uniform(narrowest, TIGHT_WIDTH[1]))
         # About 1 in 12 calls of random_track finds no valid loop of this kind in its 100
         # tries; the next call (same generator, new draws) almost always does.
-        for attempt in range(5):
-            try:
-                spec = random_track(rng, length_range=TIGHT_LENGTH, width=width,
-                                    min_radius=max(min_radius, 0.6 * width),
-                                    radius_range=(0.3, 1.0), chicanes=(1, 3))
-                break
-            except RuntimeError:
-                if attempt == 4:
-                    raise
+        spec = _retried(lambda: random_track(rng, length_range=TIGHT_LENGTH, width=width,
+                                             min_radius=max(min_radius, 0.6 * width),
+                                             radius_range=(0.3, 1.0), chicanes=(1, 3)))
         return _finished(rng, spec, reverse_share, waypoint_gap)
-    # A wide track needs wide corners (1.2 x its half-width) that a short loop may not have
-    # room for: after 100 loops without one, the width is drawn again (at most 5 times).
-    for attempt in range(5):
-        width = float(rng.uniform(narrowest, widest))
+
+    def ordinary() -> Any:
+        # A wide track needs wide corners (1.2 x its half-width) that a short loop may not
+        # have room for: after 100 loops without one, the width is drawn again.
+        drawn: float | tuple[float, float] = float(rng.uniform(narrowest, widest))
         # No draw without varying widths: the same seed gives the same tracks as before.
         if varying_share > 0 and rng.random() < varying_share:
-            width = (min(width, w := float(rng.uniform(narrowest, widest))), max(width, w))
-        wide = width if isinstance(width, float) else width[1]
+            drawn = (min(drawn, w := float(rng.uniform(narrowest, widest))), max(drawn, w))
+        wide = drawn if isinstance(drawn, float) else drawn[1]
+        return random_track(rng, length_range=length, width=drawn,
+                            min_radius=max(min_radius, 0.6 * wide), chicanes=chicanes)
+
+    return _finished(rng, _retried(ordinary), reverse_share, waypoint_gap)
+
+
+def _retried(draw: Callable[[], Any]) -> Any:
+    """``draw()``, called again while it finds no valid loop (``RuntimeError``): five calls at
+    most, the fifth one's failure raised."""
+    for _ in range(4):
         try:
-            spec = random_track(rng, length_range=length, width=width,
-                                min_radius=max(min_radius, 0.6 * wide), chicanes=chicanes)
-            break
+            return draw()
         except RuntimeError:
-            if attempt == 4:
-                raise
-    return _finished(rng, spec, reverse_share, waypoint_gap)
+            continue
+    return draw()
 
 
+LONG_WIDEST = 1.07
+"""Widest ``"long"`` circuit [m]: the width of most DeepRacer routes."""
 TIGHT_LENGTH = (14.0, 22.0)
 """Lap-length range of ``random_training_track``'s tight tracks [m] (``technical``: 20 m)."""
 HAIRPIN_CELL = (1.26, 1.6)
@@ -112,10 +118,12 @@ CIRCUIT_STYLES: dict[str, dict[str, Any]] = {
     "arcs": {},
     "bspline": {"corners": "bspline", "cell": BSPLINE_CELL, "jitter": 0.08},
     "hairpins": {"cell": HAIRPIN_CELL},
-    "long": {"cell": (2.5, 5.0), "cells": (8, 20), "corner_radius": (0.6, 1.5)},
+    "long": {"cell": (2.5, 5.0), "cells": (8, 20), "corner_radius": (0.6, 1.5),
+             "widest": LONG_WIDEST},
 }
 """The ``circuit_corners`` styles of ``random_training_track``'s circuits: ``random_circuit``'s
-arguments for each.
+arguments for each, and ``"widest"``, the top of the style's width range [m] when it is not
+``TIGHT_WIDTH``'s (the width drawn in ``TIGHT_WIDTH`` is stretched onto it).
 
 - ``"arcs"``: its defaults, every grid corner a 0.5-0.7 m arc, straights between, cells of
   1.3-2.2 m: 25-48 % of the lap under 1 m radius (10th-90th percentile).
@@ -126,8 +134,6 @@ arguments for each.
 - ``"long"``: arcs of 0.6-1.5 m on 8-20 cells of 2.5-5 m, ``LONG_WIDEST`` wide at most: laps
   of 45-100 m with 10-30 % of the lap under 1.5 m radius, as DeepRacer's 55-77 m routes
   (15-29 %); the other tracks of that length turn about half as often."""
-LONG_WIDEST = 1.07
-"""Widest ``"long"`` circuit [m]: the width of most DeepRacer routes."""
 TIGHT_WIDTH = (0.76, 0.9)
 """Width range of the tight tracks [m] (``technical``: 0.76 m)."""
 
