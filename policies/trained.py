@@ -3,8 +3,11 @@
 A policy file holds the actor's weights and the env and observation config it was trained
 with, among them the settings of the camera and the lidar its actor reads (``env_config``'s
 ``camera`` and ``lidar``: the driver renders both itself, as in training). It loads
-weights-only (``h2h_racing.policies.weights``: no pickled code runs) and its keys and sensor
-settings are checked. The driver checks that the env it drives gives the same observation
+weights-only, its tensors as numpy arrays (``h2h_racing.policies.torch_archive``, or torch's
+``weights_only`` load for what that reader leaves to torch: no pickled code runs either way),
+and its keys and sensor settings are checked. A plain MLP actor (the state-observation
+policies) acts in numpy (``trained_numpy``) and never imports torch; a CNN builds rsl-rl's
+model. The driver checks that the env it drives gives the same observation
 layout as training did, and that the weights fit the actor, and raises a clear ``ValueError``
 when they do not.
 """
@@ -18,6 +21,8 @@ import numpy as np
 import numpy.typing as npt
 
 from h2h_racing.common.extras import missing_extra
+from h2h_racing.policies.torch_archive import load_arrays
+from h2h_racing.policies.trained_numpy import NumpyActor, numpy_actor
 from h2h_racing.policies.trained_plain import plain_actor
 from h2h_racing.policies.weights import WeightsFileError, check_keys, load_weights
 from h2h_racing.training.limits import check_hidden_dims
@@ -53,9 +58,10 @@ def shipped_policies() -> dict[str, Path]:
     return {p.parent.name: p for p in sorted(TRAINED_DIR.glob("*/policy.pt"))}
 
 
-def load_policy_payload(policy: str | Path) -> dict[str, Any]:
+def load_policy_payload(policy: str | Path, arrays: bool = False) -> dict[str, Any]:
     """Load the dict of a policy file: ``policy`` is a shipped policy's name or a ``policy.pt``
-    path (loaded weights-only; the format and keys are checked).
+    path (loaded weights-only; the format and keys are checked). Its tensors are torch's, or
+    with ``arrays`` numpy arrays, read without torch where ``policies.torch_archive`` can.
 
     Raises:
         FileNotFoundError: ``policy`` is neither a shipped name nor a file.
@@ -66,7 +72,18 @@ def load_policy_payload(policy: str | Path) -> dict[str, Any]:
     if not path.is_file():
         raise FileNotFoundError(f"policy {str(policy)!r} is neither a shipped policy "
                                 f"({', '.join(shipped)}) nor a policy.pt file")
-    return _checked(load_weights(path, _EXPECTED), str(path))
+    return _checked((load_arrays if arrays else load_weights)(path, _EXPECTED), str(path))
+
+
+def trained_alone(payload: dict[str, Any]) -> bool | None:
+    """Whether the policy dict ``payload`` was trained with no other car on its track: its
+    ``racing`` record, or for files written before it, its env config's ``num_cars`` of 1
+    (None when neither says)."""
+    racing = payload.get("racing")
+    if isinstance(racing, dict) and isinstance(racing.get("alone"), bool):
+        return racing["alone"]
+    cars = payload.get("env_config", {}).get("num_cars")
+    return cars == 1 if isinstance(cars, int) else None
 
 
 def _checked(payload: Any, source: str) -> dict[str, Any]:
@@ -131,7 +148,7 @@ class TrainedPolicy:
         path = Path(path)
         if not path.is_file():
             raise FileNotFoundError(f"policy file not found: {path.resolve()}")
-        payload = load_weights(path, _EXPECTED)
+        payload = load_arrays(path, _EXPECTED)
         self._setup(payload, name or str(path), str(path))
         self.path: Path | None = path
 
@@ -139,7 +156,8 @@ class TrainedPolicy:
     def from_payload(cls, payload: dict[str, Any], name: str,
                      source: str = "<in-memory policy>") -> TrainedPolicy:
         """A driver from a policy payload held in memory (the dict a ``policy.pt`` file holds,
-        as ``h2h_racing.training.policy_file.policy_payload`` builds it), without a file.
+        as ``h2h_racing.training.policy_file.policy_payload`` builds it, or with numpy arrays
+        for its tensors), without a file.
 
         Args:
             payload: The policy dict.
@@ -190,7 +208,9 @@ class TrainedPolicy:
             self._lidar_rng = np.random.default_rng(LIDAR_NOISE_SEED)
         if self._forward is None and self._model is None:
             self._example = {k: v[:1] for k, v in self._observe(core, 0).items()}
-            self._forward = plain_actor(self.payload, self._example)
+            # numpy, else torch for an activation numpy has no twin of (gelu).
+            self._forward = (numpy_actor(self.payload, self._example)
+                             or plain_actor(self.payload, self._example))
             if self._forward is None:
                 # Not a plain MLP, or weights that do not fit (rsl-rl's model says why, now).
                 self._model = self._build_actor(self._example)
@@ -198,7 +218,7 @@ class TrainedPolicy:
     @property
     def _actor(self) -> Any:
         """The actor as rsl-rl's model (``MLPModel`` or ``CNNModel``), built on first use
-        after ``reset`` (export reads it; a plain MLP acts without it: ``plain_actor``)."""
+        after ``reset`` (export reads it; a plain MLP acts without it: ``numpy_actor``)."""
         if self._model is None:
             if self._example is None:
                 raise RuntimeError(f"{self.source}: reset the driver on a core first")
@@ -217,10 +237,14 @@ class TrainedPolicy:
         model_class = {"MLPModel": MLPModel, "CNNModel": CNNModel}[actor_cfg.pop("class_name")]
         example = TensorDict({key: torch.as_tensor(value[:1]) for key, value in example.items()},
                              batch_size=[1])
+        # load_state_dict copies each value into the model's tensors: a numpy array read from
+        # the file gives the same bits as torch's own tensor.
+        state = {key: torch.from_numpy(value) if isinstance(value, np.ndarray) else value
+                 for key, value in self.payload["actor_state_dict"].items()}
         try:
             model = model_class(example, {"actor": list(self.payload["obs_groups"])}, "actor",
                                 2, **actor_cfg)
-            model.load_state_dict(self.payload["actor_state_dict"])
+            model.load_state_dict(state)
         except (RuntimeError, TypeError, ValueError, KeyError) as error:
             # Weights of another size (or another actor config) than this env's observations
             # give: torch's message lists the tensors that differ.
@@ -250,11 +274,13 @@ class TrainedPolicy:
 
     def act(self, core: RaceCore, car: int) -> npt.NDArray[np.float32]:
         """Return the actions of car ``car`` in every env copy, (E, 2) in [-1, 1]."""
-        import torch
-
         if self._forward is None and self._model is None:
             self.reset(core)
         obs = self._observe(core, car)
+        if isinstance(self._forward, NumpyActor):
+            return np.clip(self._forward(obs), -1.0, 1.0).astype(np.float32)
+        import torch
+
         with torch.inference_mode():
             if self._forward is not None:
                 action = self._forward(obs)

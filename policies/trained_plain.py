@@ -12,11 +12,16 @@ copies' batch more than the arithmetic does.
 
 Anything else (a CNN, another distribution, an unknown setting, weights that do not fit)
 gets None, and the driver builds rsl-rl's model, which says what does not fit.
+
+Drivers act with ``policies.trained_numpy``'s numpy version of the same MLP (no torch at
+all); this torch one is its reference in the tests and acts only for the activations numpy
+has no twin of (``gelu``).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -35,15 +40,25 @@ _GAUSSIAN_KEYS = frozenset(("class_name", "init_std", "std_range", "std_type", "
 Forward = Callable[[Mapping[str, npt.NDArray[np.float32]]], Any]
 
 
-def plain_actor(payload: Mapping[str, Any],
-                example: Mapping[str, npt.NDArray[np.float32]]) -> Forward | None:
-    """The actor of ``payload`` (a policy file's dict) as a function of the observation groups
-    (``{group: (E, dim) float32}``, as ``example``) to its actions (a float32 tensor, (E, 2),
-    before clipping), or None when it is not an ``MLPModel`` with a Gaussian (or no)
-    distribution whose weights fit ``example``'s groups. Call it under
-    ``torch.inference_mode()``."""
-    import torch
+@dataclass(frozen=True)
+class MlpLayout:
+    """The plain MLP of a policy file (``mlp_layout``)."""
 
+    groups: tuple[str, ...]
+    """Observation groups, concatenated in this order."""
+    dims: tuple[int, ...]
+    """Widths: the input, each hidden layer, the 2 actions."""
+    activation: str
+    """Between the linear layers (a name of ``ACTIVATIONS``)."""
+    normalize: bool
+    """Whether the input is normalised first (``obs_normalizer._mean``, ``_std``)."""
+
+
+def mlp_layout(payload: Mapping[str, Any],
+               example: Mapping[str, npt.NDArray[np.float32]]) -> MlpLayout | None:
+    """The layout of ``payload``'s actor (a policy file's dict; its weights torch tensors or
+    numpy arrays), or None when it is not an ``MLPModel`` with a Gaussian (or no)
+    distribution whose weights fit ``example``'s groups (``{group: (E, dim) float32}``)."""
     cfg = payload["actor_cfg"]
     groups = list(payload["obs_groups"])
     dist = cfg.get("distribution_cfg")
@@ -68,20 +83,41 @@ def plain_actor(payload: Mapping[str, Any],
     if dist is not None:
         std = "std_param" if dist.get("std_type", "scalar") == "scalar" else "log_std_param"
         shapes[f"distribution.{std}"] = (2,)
+    # A tensor or an array (policies.torch_archive reads a file's tensors as arrays).
     if set(state) != set(shapes) or any(
-            not isinstance(state[k], torch.Tensor) or tuple(state[k].shape) != shape
-            for k, shape in shapes.items()):
+            not (hasattr(state[k], "shape") and hasattr(state[k], "dtype"))
+            or tuple(state[k].shape) != shape for k, shape in shapes.items()):
         return None
+    return MlpLayout(tuple(groups), tuple(dims), cfg.get("activation", "elu"),
+                     cfg.get("obs_normalization", False))
+
+
+def plain_actor(payload: Mapping[str, Any],
+                example: Mapping[str, npt.NDArray[np.float32]]) -> Forward | None:
+    """The actor of ``payload`` (a policy file's dict) as a function of the observation groups
+    (``{group: (E, dim) float32}``, as ``example``) to its actions (a float32 tensor, (E, 2),
+    before clipping), or None when it is not a plain MLP (``mlp_layout``). Call it under
+    ``torch.inference_mode()``."""
+    layout = mlp_layout(payload, example)
+    if layout is None:
+        return None
+    import torch
+
+    groups, dims = layout.groups, layout.dims
+    state = payload["actor_state_dict"]
 
     def weight(key: str) -> Any:
         # What load_state_dict leaves in a float32 module: a contiguous float32 copy.
-        return state[key].detach().to(torch.float32).clone(memory_format=torch.contiguous_format)
+        value = state[key]
+        if isinstance(value, np.ndarray):
+            value = torch.from_numpy(value)
+        return value.detach().to(torch.float32).clone(memory_format=torch.contiguous_format)
 
     layers = [(weight(f"mlp.{2 * i}.weight"), weight(f"mlp.{2 * i}.bias"))
               for i in range(len(dims) - 1)]
-    activation = _activation(cfg.get("activation", "elu"))
+    activation = _activation(layout.activation)
     normalize = None
-    if cfg.get("obs_normalization", False):
+    if layout.normalize:
         normalize = (weight("obs_normalizer._mean"), weight("obs_normalizer._std"))
     linear = torch.nn.functional.linear
 

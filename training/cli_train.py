@@ -99,7 +99,7 @@ _WARNED_ALONE: set[str] = set()
 
 def warn_trained_alone(drivers: list[str], others: int) -> None:
     """Warn once on stderr, per policy, when a policy among ``drivers`` that was trained alone
-    (its policy file's ``racing`` record, ``training.policy_file.trained_alone``) races
+    (its policy file's ``racing`` record, ``policies.trained.trained_alone``) races
     ``others`` (>= 1) other cars: it has never seen a car, and crashes into them. Scripted
     drivers, and files that do not load (the command reports those itself), are passed over."""
     from h2h_racing.policies.registry import parse_driver_spec
@@ -116,10 +116,10 @@ def warn_trained_alone(drivers: list[str], others: int) -> None:
         if name in _WARNED_ALONE or not (name in shipped or name.endswith(".pt")):
             continue
         try:
-            from h2h_racing.policies.trained import load_policy_payload
-            from h2h_racing.training.policy_file import trained_alone
+            from h2h_racing.policies.trained import load_policy_payload, trained_alone
 
-            alone = trained_alone(load_policy_payload(name))
+            # Read without torch: a race of state-observation policies never imports it.
+            alone = trained_alone(load_policy_payload(name, arrays=True))
         except (ImportError, OSError, ValueError):
             continue
         if alone:

@@ -6,26 +6,25 @@ driver, built for a core of its track alone, acts on its own copies (a ``CoreVie
 batched drivers here act for the copies of every run of a group (the runs of one driver spec)
 in one call, and give each copy the bits that its own driver gives it:
 
-- ``BatchedPolicy``: a trained MLP (``policies.trained_plain``) over the rows of every run in
-  one forward pass. A row of torch's CPU ``linear`` (MKL's sgemm, one thread) does not always
-  get the same bits whatever the batch: the kernel MKL picks depends on the shape, and with
-  it the order of the sums. For the shipped MLPs (33 inputs, hidden layers of 256, 2 outputs)
-  batches of 1-3 rows give other bits than batches of 4 or more, which all agree; a layer of
-  one output differs at irregular batch sizes (5, 6, 7, 11, ...). So the rule is checked, not
+- ``BatchedPolicy``: a trained MLP in numpy (``policies.trained_numpy``) over the rows of
+  every run in one forward pass. A row of a BLAS matmul does not get the same bits whatever
+  the batch (OpenBLAS's sgemm handles rows in groups, a partial group with another kernel);
+  the numpy actor multiplies each run's block of copies as tiles of its own, sized by the
+  block alone, so that a run's rows get the bits they get alone. That is checked, not
   assumed: before a group is batched, random inputs are passed both ways, one forward pass
   of all the group's rows against one per run's block, at the sizes the race uses (they do
   not change during a race: a done copy is stepped on with the others); a row that differs
-  keeps the group on one call per run. The kernel depends on the shapes only, not on the
+  keeps the group on one call per run. The kernels depend on the shapes only, not on the
   values, so random inputs stand for the race's.
 - ``BatchedRacingLine``: ``racing_line``'s time-trial ``act`` over the copies of every run,
   each row reading its own run's line and track tables by index (``RowTables``): the same
   numpy operations per element, with ``np.interp``'s arithmetic written out
   (``interp_rows``), so no Python loop over the runs in a step.
 
-Anything else (camera or lidar policies, other drivers, ``racing_line`` with other cars,
-boxes or bots) acts one run at a time, as before. Camera policies render a camera per
-track and run rsl-rl's CNN, whose convolutions pick oneDNN kernels by batch size too; they
-are left as they were.
+Anything else (camera or lidar policies, an MLP acting with torch, other drivers,
+``racing_line`` with other cars, boxes or bots) acts one run at a time, as before. Camera
+policies render a camera per track and run rsl-rl's CNN, whose convolutions pick oneDNN
+kernels by batch size too; they are left as they were.
 """
 
 from __future__ import annotations
@@ -40,6 +39,7 @@ import numpy.typing as npt
 from h2h_racing.policies.scripted import RacingLine
 from h2h_racing.policies.steering import lookahead, pursuit_steer, to_action
 from h2h_racing.policies.trained import TrainedPolicy
+from h2h_racing.policies.trained_numpy import NumpyActor
 
 FloatArray = npt.NDArray[np.float64]
 IndexArray = npt.NDArray[np.int64]
@@ -99,53 +99,54 @@ def interp_rows(tables: RowTables, x: FloatArray, table: IndexArray) -> FloatArr
 
 
 class BatchedPolicy:
-    """One forward pass of a trained MLP over the copies of several runs (same weights)."""
+    """One forward pass of a trained MLP over the copies of several runs (same weights).
 
-    def __init__(self, driver: TrainedPolicy) -> None:
-        self.forward = driver._forward
+    Args:
+        driver: One of the runs' drivers (reset).
+        block: Copies of each run; run r has the rows ``r * block ... (r + 1) * block - 1``
+            of the rows ``act`` is given.
+    """
+
+    def __init__(self, driver: TrainedPolicy, block: int) -> None:
+        self.forward: NumpyActor = driver._forward
         self.driver = driver
+        self.block = block
 
     @staticmethod
     def fits(drivers: Sequence[Any]) -> bool:
-        """Whether ``drivers`` (reset on their views) are trained MLPs acting by plain torch
-        on state observations only."""
+        """Whether ``drivers`` (reset on their views) are trained MLPs acting in numpy on state
+        observations only."""
         # The class itself: a subclass may act otherwise.
-        return all(type(d) is TrainedPolicy and d._forward is not None
+        return all(type(d) is TrainedPolicy and isinstance(d._forward, NumpyActor)
                    and d._camera is None and d._lidar is None for d in drivers)
 
-    def invariant(self, block: int, runs: int, seed: int = 0) -> bool:
-        """Whether a forward pass of ``runs * block`` rows gives each row the bits of one of
-        ``block`` rows (random inputs of the observation groups' widths)."""
-        import torch
-
+    def invariant(self, runs: int, seed: int = 0) -> bool:
+        """Whether a forward pass of ``runs`` blocks gives each row the bits of its block
+        alone, as its run's own driver computes it (random inputs of the observation groups'
+        widths)."""
         example = self.driver._example
         assert example is not None
+        block = self.block
         rng = np.random.default_rng(seed)
         obs = {k: rng.normal(size=(runs * block, v.shape[1])).astype(np.float32)
                for k, v in example.items()}
-        with torch.inference_mode():
-            whole = self.forward(obs).numpy()
-            for r in range(runs):
-                part = {k: np.ascontiguousarray(v[r * block:(r + 1) * block])
-                        for k, v in obs.items()}
-                if not np.array_equal(self.forward(part).numpy(),
-                                      whole[r * block:(r + 1) * block]):
-                    return False
+        whole = self.forward(obs, block)
+        for r in range(runs):
+            part = {k: np.ascontiguousarray(v[r * block:(r + 1) * block])
+                    for k, v in obs.items()}
+            if not np.array_equal(self.forward(part), whole[r * block:(r + 1) * block]):
+                return False
         return True
 
     def act(self, core: Any, rows: IndexArray, car: int) -> npt.NDArray[np.float32]:
         """Actions of car ``car`` in copies ``rows`` of ``core``, as ``TrainedPolicy.act``."""
-        import torch
-
         from h2h_racing.sensors.state import MOTION_FEATURES, state_observation
 
         # TrainedPolicy._observe's groups, of the rows (the state is per copy).
         state = state_observation(core)[rows, car]
         obs = {"policy": np.ascontiguousarray(state),
                "motion": np.ascontiguousarray(state[:, list(MOTION_FEATURES)])}
-        with torch.inference_mode():
-            action = self.forward(obs)
-        return np.clip(action.numpy(), -1.0, 1.0).astype(np.float32)
+        return np.clip(self.forward(obs, self.block), -1.0, 1.0).astype(np.float32)
 
 
 class BatchedRacingLine:
@@ -235,8 +236,8 @@ def batched_driver(drivers: Sequence[Any], views: Sequence[Any], core: Any,
     if len(drivers) < 2:
         return None
     if BatchedPolicy.fits(drivers):
-        policy = BatchedPolicy(drivers[0])
-        return policy if policy.invariant(block, len(drivers)) else None
+        policy = BatchedPolicy(drivers[0], block)
+        return policy if policy.invariant(len(drivers)) else None
     if BatchedRacingLine.fits(drivers, core):
         return BatchedRacingLine(drivers, [view.track for view in views], block)
     return None

@@ -25,7 +25,8 @@ try:
 except ImportError as _error:
     raise missing_extra("train", "training", _error) from None
 
-from h2h_racing.policies.trained import POLICY_FORMAT  # noqa: E402
+# trained_alone: re-exported (it reads a policy dict, and lives beside the format).
+from h2h_racing.policies.trained import POLICY_FORMAT, trained_alone  # noqa: E402,F401
 from h2h_racing.training.ppo import project_std  # noqa: E402
 
 if TYPE_CHECKING:
@@ -60,17 +61,6 @@ def racing_record(config: TrainConfig) -> dict[str, Any]:
     learners = config.num_cars if config.learners is None else config.learners
     return {"alone": config.num_cars == 1, "cars": config.num_cars, "learners": learners,
             "opponents": config.opponents() if learners < config.num_cars else []}
-
-
-def trained_alone(payload: dict[str, Any]) -> bool | None:
-    """Whether the policy dict ``payload`` was trained with no other car on its track: its
-    ``racing`` record, or for files written before it, its env config's ``num_cars`` of 1
-    (None when neither says)."""
-    racing = payload.get("racing")
-    if isinstance(racing, dict) and isinstance(racing.get("alone"), bool):
-        return racing["alone"]
-    cars = payload.get("env_config", {}).get("num_cars")
-    return cars == 1 if isinstance(cars, int) else None
 
 
 def save_policy(runner: Any, config: TrainConfig, path: str | Path,

@@ -452,15 +452,17 @@ class TestRewardTimeLimit:
 
 
 class TestMissingExtras:
-    """Without torch, trained drivers and ``train`` name the extra to install."""
+    """Without torch, camera drivers (a CNN) and ``train`` name the extra to install (a
+    state-observation driver acts in numpy: tests/policies/test_trained_numpy.py)."""
 
     @pytest.mark.parametrize("argv", [
         ["race", "--track", "oval", "--laps", "1", "--no-progress", "--drivers",
-         "{policy},racing_line"],
+         "{camera},racing_line"],
         ["train", "--track", "oval", "--iterations", "1", "--envs", "2", "--out", "{out}"],
     ], ids=["race", "train"])
     def test_without_torch(self, tmp_path: Path, argv: list[str]) -> None:
-        argv = [a.format(policy=_state_policy(), out=tmp_path / "run") for a in argv]
+        argv = [a.format(camera=shipped_policies()["camera_speedway"], out=tmp_path / "run")
+                for a in argv]
         # None in sys.modules makes `import torch` fail as if it were not installed.
         code = ("import sys; sys.modules['torch'] = None; from h2h_racing.cli.command import main; "
                 f"sys.exit(main({argv!r}))")

@@ -88,27 +88,39 @@ SHIPPED_MLPS = ("ppo_generalist", "obstacle_generalist", "league_racer",
 @pytest.mark.parametrize("name", SHIPPED_MLPS)
 def test_policy_batches_only_where_its_rows_keep_their_bits(name: str) -> None:
     """``invariant`` says what a forward pass of the runs' rows does to a row: checked here
-    against the network itself at 1-5 and 10 rows a run, on every shipped MLP policy (on
-    this machine's MKL, batches of 1-3 rows give other bits than larger ones, so such runs
-    stay one call per run)."""
-    import torch
-
+    against the network itself at 1-5, 10, 17 and 40 rows a run, on every shipped MLP policy
+    (the numpy actor multiplies each run's block as tiles of its own, so every size keeps its
+    bits), and against a forward pass that takes all rows as one block (OpenBLAS gives a row
+    other bits by where it sits: such a group would stay one call per run)."""
     core, views = _core(5)
     driver = make_driver(name, seed=0)
     driver.reset(views[0][1])
     assert BatchedPolicy.fits([driver])
-    policy = BatchedPolicy(driver)
     rng = np.random.default_rng(0)
-    with one_torch_thread(), torch.inference_mode():
-        for block in (1, 2, 3, 4, 5, 10):
-            obs = {k: rng.normal(size=(3 * block, v.shape[1])).astype(np.float32)
-                   for k, v in driver._example.items()}
-            whole = policy.forward(obs).numpy()
-            parts = np.concatenate([policy.forward(
-                {k: np.ascontiguousarray(v[r * block:(r + 1) * block]) for k, v in obs.items()}
-            ).numpy() for r in range(3)])
-            assert policy.invariant(block, 3) == np.array_equal(whole, parts)
-        assert policy.invariant(5, 3)
+    for block in (1, 2, 3, 4, 5, 10, 17, 40):
+        policy = BatchedPolicy(driver, block)
+        obs = {k: rng.normal(size=(3 * block, v.shape[1])).astype(np.float32)
+               for k, v in driver._example.items()}
+        whole = policy.forward(obs, block)
+        parts = np.concatenate([policy.forward(
+            {k: np.ascontiguousarray(v[r * block:(r + 1) * block]) for k, v in obs.items()})
+            for r in range(3)])
+        assert np.array_equal(whole, parts)
+        assert policy.invariant(3)
+    # A forward pass blind to the blocks (15 rows as one: on OpenBLAS, other bits), and one
+    # whose rows change with the batch size: the check must see what they do to the rows.
+    obs = {k: rng.normal(size=(15, v.shape[1])).astype(np.float32)
+           for k, v in driver._example.items()}
+    actor = BatchedPolicy(driver, 5).forward
+    parts = np.concatenate([actor({k: np.ascontiguousarray(v[r * 5:(r + 1) * 5])
+                                   for k, v in obs.items()}) for r in range(3)])
+    blind = BatchedPolicy(driver, 5)
+    blind.forward = lambda obs, block=None: actor(obs)  # type: ignore[assignment,misc]
+    assert blind.invariant(3) == np.array_equal(actor(obs), parts)
+    sized = BatchedPolicy(driver, 5)
+    sized.forward = lambda obs, block=None: (  # type: ignore[assignment,misc]
+        actor(obs, block) + np.float32(1e-3) * len(obs["policy"]))
+    assert not sized.invariant(3)
 
 
 def test_lap_runs_of_two_copies_are_evaluate_to_the_bit() -> None:
