@@ -33,6 +33,7 @@ import itertools
 import json
 import math
 import os
+import sys
 import zlib
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
@@ -373,12 +374,14 @@ def run_job(job: Job) -> list[MatchRecord]:
 
 
 def _one_thread() -> None:
-    """Small networks on a busy machine: one torch thread per worker (see TrainConfig)."""
-    try:
-        import torch
-    except ImportError:
-        return
-    torch.set_num_threads(1)
+    """Small networks on a busy machine: one torch thread per worker (see TrainConfig). Set
+    without importing torch, which a state-observation driver never needs (it acts in numpy):
+    torch reads ``OMP_NUM_THREADS`` when a camera driver imports it."""
+    torch = sys.modules.get("torch")
+    if torch is None:
+        os.environ["OMP_NUM_THREADS"] = "1"
+    else:
+        torch.set_num_threads(1)
 
 
 @dataclass(frozen=True)

@@ -185,9 +185,10 @@ HEAVY = ("torch", "rsl_rl", "tensordict", "rerun", "matplotlib", "ray")
 
 
 def test_commands_driving_a_state_policy_never_import_torch(tmp_path: Path) -> None:
-    """``evaluate`` over a folder of routes and on one track with ``ppo_generalist``, and a
+    """``evaluate`` over a folder of routes and on one track with ``ppo_generalist``, a
     ``race`` of ``league_racer`` against a car (its file read for the trained-alone warning
-    too): none of ``HEAVY`` is imported (torch alone was 2-3 s of a command)."""
+    too) and a ``tournament``: none of ``HEAVY`` is imported (torch alone was 2-3 s of a
+    command)."""
     routes = tmp_path / "routes"
     routes.mkdir()
     catalogue = Path(load_track.__code__.co_filename).resolve().parents[2] / "tracks"
@@ -199,6 +200,9 @@ def test_commands_driving_a_state_policy_never_import_torch(tmp_path: Path) -> N
         ["evaluate", "--policy", "ppo_generalist", "--track", "oval", "--episodes", "2"],
         ["race", "--track", "oval", "--laps", "1", "--drivers", "league_racer,racing_line",
          "--no-progress"],
+        ["tournament", "--players", "league_racer,racing_line", "--tracks", "oval", "--races",
+         "1", "--laps", "1", "--league", str(tmp_path / "league.sqlite"), "--backend",
+         "inprocess"],
     ]
     code = ("import sys; from h2h_racing.cli.command import main\n"
             f"for argv in {commands!r}:\n"
