@@ -24,8 +24,10 @@ command and its worker processes (``wait4``: on a shared machine the CPU time sa
 
 Each repeat runs every variant once per ``--jobs``, in an order that alternates between
 repeats, so all see the same machine load; a first run of each on one route warms numba's
-cache (discarded). At the end the ``--json`` figures of the runs are compared (wall time and
-``jobs`` left out): every route's row and the summary must be the same.
+cache (discarded). At the end the ``--json`` figures of the runs are compared with the new
+run's (wall time and ``jobs`` left out): identical, or how many route fields differ and by how
+much (a tree acting with torch differs from the numpy actor in the last digits; 5838405 drives
+the ``ppo_generalist`` before issue 36's retraining).
 """
 
 from __future__ import annotations

@@ -213,3 +213,9 @@ def test_commands_driving_a_state_policy_never_import_torch(tmp_path: Path) -> N
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip().splitlines()[-1] == "HEAVY []", done.stdout
     assert json.loads((tmp_path / "routes.json").read_text())["summary"]["routes"] == 2
+    # Without torch installed (None in sys.modules fails its import), the race still runs.
+    code = ("import sys; sys.modules['torch'] = None; from h2h_racing.cli.command import main; "
+            f"sys.exit(main({commands[2]!r}))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=tmp_path, timeout=300)
+    assert done.returncode == 0 and "league_racer" in done.stdout, done.stderr
