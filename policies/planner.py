@@ -84,6 +84,8 @@ PREDICT_STEPS = 30
 ACCEL_TIME = 0.3
 """Time over which another car's acceleration is smoothed [s]."""
 PACE_TIME = 1.0
+TOP_DECAY = 0.3
+"""Rate at which the top speed remembered of each car fades [m/s per s]."""
 """Time over which another car's pace ratio is smoothed [s]."""
 HOLD_GRIP = 0.8
 """Share of the driver's grip used when holding an offset beside a car (parallel to the
@@ -189,6 +191,10 @@ class Planner:
         follow_time: Extra follow gap per m/s of its own speed [s].
         runup_gap: Extra follow gap of a run-up, after ``RUNUP_AFTER`` seconds stuck behind
             a car [m] (0: none).
+        steady_gap: Bumper gap held instead, when smaller, behind a lone car (no other within
+            ``PACK_RANGE``) whose recent top speed is near the planner's: right behind a
+            rival of equal top speed it is alongside when that car brakes earlier for a bend.
+            A slower car (one to pass at once) and a pack keep the follow gap.
 
     Raises:
         ValueError: A setting out of its range (``SETTINGS``), in one line.
@@ -205,16 +211,17 @@ class Planner:
         "follow_gap": Setting(0.0, 2.0, "bumper gap held behind a car it follows [m]"),
         "follow_time": Setting(0.0, 1.0, "extra follow gap per m/s [s]"),
         "runup_gap": Setting(0.0, 5.0, "extra gap of a run-up behind a car it is stuck behind [m]"),
+        "steady_gap": Setting(0.0, 2.0, "bumper gap behind a lone rival as fast as it [m]"),
     }
 
     def __init__(self, grip_factor: float = 0.85, brake_factor: float = 0.8,
                  margin: float = 0.12, cover_gap: float = 1.5, lateral_margin: float = 0.1,
                  long_margin: float = 0.15, follow_gap: float = 0.15, follow_time: float = 0.03,
-                 runup_gap: float = 2.0) -> None:
+                 runup_gap: float = 2.0, steady_gap: float = 0.0) -> None:
         given = {"grip_factor": grip_factor, "brake_factor": brake_factor, "margin": margin,
                  "cover_gap": cover_gap, "lateral_margin": lateral_margin,
                  "long_margin": long_margin, "follow_gap": follow_gap,
-                 "follow_time": follow_time, "runup_gap": runup_gap}
+                 "follow_time": follow_time, "runup_gap": runup_gap, "steady_gap": steady_gap}
         for key, value in given.items():
             try:
                 setattr(self, key, self.SETTINGS[key].check(value))
@@ -229,6 +236,7 @@ class Planner:
         self._ratio = np.ones((0, 0))
         self._speed = np.zeros((0, 0))
         self._accel = np.zeros((0, 0))
+        self._top = np.zeros((0, 0))
         self._reanchor = np.zeros(0)
         self._stuck = np.zeros(0)
         self._runup_left = np.zeros(0)
@@ -254,6 +262,7 @@ class Planner:
         self._ratio = np.ones((e, core.num_cars))
         self._speed = np.zeros((e, core.num_cars))
         self._accel = np.zeros((e, core.num_cars))
+        self._top = np.full((e, core.num_cars), core.config.max_speed)
         self._reanchor = np.full(e, kernel.REANCHOR)
         self._stuck = np.zeros(e)
         self._runup_left = np.zeros(e)
@@ -284,6 +293,7 @@ class Planner:
         params[kernel.P_SWITCH_CURVATURE] = SWITCH_CURVATURE
         params[kernel.P_A_LANE] = HOLD_GRIP * params[kernel.P_A_LAT]
         params[kernel.P_SPEED_PREVIEW] = SPEED_PREVIEW
+        params[kernel.P_STEADY_GAP] = self.steady_gap
         return params
 
     def act(self, core: RaceCore, car: int) -> npt.NDArray[np.float32]:
@@ -302,7 +312,7 @@ class Planner:
         err = np.remainder(core.yaw[:, car] - psi[:, car] + math.pi, 2.0 * math.pi) - math.pi
         slope = np.clip(np.tan(np.clip(err, -1.2, 1.2)) * (1.0 - kc * d), -1.0, 1.0)
         objects = self._objects(core, car, psi)
-        cap, ratio, accel = self._pace(core, car, lanes)
+        cap, ratio, accel, top = self._pace(core, car, lanes)
         traj = np.empty(objects[0].shape + (PREDICT_STEPS + 1,))
         kernel.predict(objects[0], objects[3], cap, ratio, s, lanes.speed[:1], lanes.inv_ds,
                        lanes.length, accel, traj)
@@ -319,7 +329,7 @@ class Planner:
         path = np.empty((e, track_at.shape[1], 3))
         kernel.plan(s, d, slope, v, lanes.offset, lanes.speed, lanes.curvature, lanes.centre,
                     lanes.inv_ds, lanes.length, transitions, horizon, 30, *objects[:3], traj,
-                    *objects[3:], bonus,
+                    *objects[3:], top, bonus,
                     *self._plan, self._packed, self._reanchor, self._runup(core),
                     look, choice, d_look, v_cmd, self.report, track_at, path)
         self.choice = choice
@@ -376,6 +386,9 @@ class Planner:
         seen_accel = (core.speed - self._speed) / core.dt
         self._accel += min(1.0, core.dt / ACCEL_TIME) * (seen_accel - self._accel)
         self._speed = core.speed.copy()
+        self._top = np.maximum(np.where(core.racing, core.speed, 0.0),
+                               self._top - TOP_DECAY * core.dt)
+        top = self._top
         cap = np.full(self._ratio.shape, core.config.max_speed)
         ratio, accel = self._ratio, np.clip(self._accel, -core.config.car.max_brake,
                                            core.config.car.max_accel)
@@ -383,8 +396,9 @@ class Planner:
             cap = np.concatenate([cap, core.bot_speed], axis=1)
             ratio = np.concatenate([ratio, np.full(core.bot_speed.shape, 10.0)], axis=1)
             accel = np.concatenate([accel, np.zeros(core.bot_speed.shape)], axis=1)
+            top = np.concatenate([top, core.bot_speed], axis=1)
         return (np.ascontiguousarray(cap), np.ascontiguousarray(ratio),
-                np.ascontiguousarray(accel))
+                np.ascontiguousarray(accel), np.ascontiguousarray(top))
 
     def _objects(self, core: RaceCore, car: int, psi: FloatArray) -> tuple[Any, ...]:
         """Other cars and bots as the kernel's object slots (E, N + B) (see ``plan``);

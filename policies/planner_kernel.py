@@ -60,6 +60,7 @@ from h2h_racing.policies.planner_motion import (  # noqa: F401  (re-exported for
     P_LAT_MARGIN,
     P_LONG_MARGIN,
     P_SPEED_PREVIEW,
+    P_STEADY_GAP,
     P_SWITCH_COST,
     P_SWITCH_CURVATURE,
     P_V_MAX,
@@ -94,9 +95,9 @@ OVER_WEIGHT = 0.5
 @njit(cache=True)
 def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, transitions,
          horizon, samples, obj_gap, obj_lo, obj_hi, traj, obj_v, obj_dd, obj_half_len,
-         obj_half_wid, obj_valid, lane_bonus, plan_lane, plan_start, plan_error, plan_slope,
-         plan_length, plan_hold, params, reanchor, gap_extra, look, choice, d_look, v_cmd,
-         report, track_at, track_out):  # pragma: no cover
+         obj_half_wid, obj_valid, obj_top, lane_bonus, plan_lane, plan_start, plan_error,
+         plan_slope, plan_length, plan_hold, params, reanchor, gap_extra, look, choice, d_look,
+         v_cmd, report, track_at, track_out):  # pragma: no cover
     """Choose a manoeuvre per env copy and return its look-ahead offset and speed command.
 
     Args:
@@ -114,7 +115,8 @@ def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, tra
         samples: Samples along the horizon.
         obj_*: Other cars and bots, (E, J): arc gap ahead of the car (wrapped) [m], lateral
             span now (lo, hi) [m], speed [m/s], lateral speed [m/s], half length and half
-            width [m], and whether the slot holds an object.
+            width [m], whether the slot holds an object, and the top speed it reached lately
+            [m/s].
         traj: (E, J, P) each object's predicted travel (``predict``) [m].
         lane_bonus: (E, NL) cost subtracted from each lane's candidates [s] (defence).
         plan_lane, plan_start, plan_error, plan_slope, plan_length: (E,) the path being
@@ -253,8 +255,9 @@ def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, tra
             following = True
         choice[e] = -1 if following else lane
         if following:
-            v1 = min(v1, _follow_speed(e, d0, v0, obj_gap, obj_lo, obj_hi, obj_v, obj_dd,
-                                       obj_half_len, obj_half_wid, obj_valid, params,
+            v1 = min(v1, _follow_speed(e, s0, d0, v0, obj_gap, obj_lo, obj_hi, obj_v,
+                                       obj_dd, obj_half_len, obj_half_wid, obj_valid,
+                                       obj_top, centre, inv_ds, length, params,
                                        gap_extra[e]))
         if lane != stay:  # a new path (stay is -1 when there is none to keep)
             lane_here = _table(lane_d, lane, s0[e], inv_ds, length)

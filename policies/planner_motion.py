@@ -18,8 +18,15 @@ FOLLOW_PREVIEW = 0.6
 # Indices into the kernel's packed parameters (``params``).
 P_A_LAT, P_A_ACC, P_A_BRK, P_EDGE, P_HALF_LEN, P_HALF_WID, P_LONG_MARGIN, P_LAT_MARGIN, \
     P_CLOSING_MARGIN, P_SWITCH_COST, P_DEV_COST, P_GAIN, P_DT, P_FOLLOW_GAP, P_FOLLOW_TIME, \
-    P_FOLLOW_GAIN, P_V_MAX, P_FOLLOW_COST, P_SWITCH_CURVATURE, P_A_LANE, P_SPEED_PREVIEW = range(21)
-NUM_PARAMS = 21
+    P_FOLLOW_GAIN, P_V_MAX, P_FOLLOW_COST, P_SWITCH_CURVATURE, P_A_LANE, P_SPEED_PREVIEW, \
+    P_STEADY_GAP = range(22)
+NUM_PARAMS = 22
+STEADY_PACE = 0.7
+"""Share of the top speed that a car ahead must have reached lately (``Planner``'s
+``TOP_DECAY``) to count as a rival as fast as the planner on the straights, not a slower car
+to pass at once."""
+PACK_RANGE = 3.0
+"""Arc distance within which another car makes a pack: no close following then [m]."""
 
 
 @njit(cache=True, inline="always")
@@ -130,15 +137,25 @@ def _command(v, v_next, step, params):  # pragma: no cover
 
 
 @njit(cache=True)
-def _follow_speed(e, d0, v0, obj_gap, obj_lo, obj_hi, obj_v, obj_dd, obj_half_len, obj_half_wid,
-                  obj_valid, params, extra):  # pragma: no cover
+def _follow_speed(e, s0, d0, v0, obj_gap, obj_lo, obj_hi, obj_v, obj_dd, obj_half_len,
+                  obj_half_wid, obj_valid, obj_top, centre, inv_ds, length, params,
+                  extra):  # pragma: no cover
     """Speed that holds a gap of ``follow_gap + follow_time v + extra`` to the nearest object ahead
     that overlaps the car laterally now or within ``FOLLOW_PREVIEW`` at its lateral speed (a
-    large number when there is none) [m/s]."""
+    large number when there is none) [m/s]. Behind a lone car (no other within
+    ``PACK_RANGE``) that is as fast on the straights (its recent top speed above
+    ``STEADY_PACE`` of ``P_V_MAX``) the gap is at most ``P_STEADY_GAP``: close enough to be
+    alongside when it brakes earlier for a bend."""
     lead_v = 1e9
     lead_gap = 1e9
+    lead = -1
+    near = 0
     for o in range(obj_gap.shape[1]):
-        if not obj_valid[e, o] or obj_gap[e, o] <= 0.0:
+        if not obj_valid[e, o]:
+            continue
+        if abs(obj_gap[e, o]) < PACK_RANGE:
+            near += 1
+        if obj_gap[e, o] <= 0.0:
             continue
         moved = obj_dd[e, o] * FOLLOW_PREVIEW
         lo = min(obj_lo[e, o], obj_lo[e, o] + moved)
@@ -146,15 +163,31 @@ def _follow_speed(e, d0, v0, obj_gap, obj_lo, obj_hi, obj_v, obj_dd, obj_half_le
         apart = max(lo - d0[e], d0[e] - hi, 0.0)
         if apart > params[P_HALF_WID] + obj_half_wid[e, o] + params[P_LAT_MARGIN]:
             continue
-        gap = obj_gap[e, o] - params[P_HALF_LEN] - obj_half_len[e, o]
+        # The bumper gap in metres driven: an arc gap of the centre line shrinks by
+        # (1 - kappa d) at the cars' mean offset d (on the inside of a bend).
+        bend = _table(centre, 0, s0[e] + 0.5 * obj_gap[e, o], inv_ds, length)
+        mean_d = 0.5 * (d0[e] + 0.5 * (obj_lo[e, o] + obj_hi[e, o]))
+        gap = (obj_gap[e, o] * max(1.0 - bend * mean_d, 0.2) - params[P_HALF_LEN]
+               - obj_half_len[e, o])
         if gap < lead_gap:
             lead_gap = gap
             lead_v = obj_v[e, o]
+            lead = o
     if lead_gap > 1e8:
         return 1e9
-    wanted = params[P_FOLLOW_GAP] + params[P_FOLLOW_TIME] * v0[e] + extra
-    speed = max(lead_v + params[P_FOLLOW_GAIN] * (lead_gap - wanted), 0.0)
+    wanted = params[P_FOLLOW_GAP] + params[P_FOLLOW_TIME] * v0[e]
+    if near <= 1 and obj_top[e, lead] > STEADY_PACE * params[P_V_MAX]:
+        wanted = min(wanted, params[P_STEADY_GAP])
+    wanted += extra
+    # The gap is along the centre line, where a car at offset d moves at v / (1 - kappa d):
+    # on the inside of a bend the follower gains on a car outside it at the same speed. So
+    # the car ahead's arc rate is matched, then turned back into a speed at the car's offset.
+    s_lead = s0[e] + obj_gap[e, lead]
+    rate = lead_v / max(1.0 - _table(centre, 0, s_lead, inv_ds, length)
+                        * 0.5 * (obj_lo[e, lead] + obj_hi[e, lead]), 0.2)
+    own = max(1.0 - _table(centre, 0, s0[e], inv_ds, length) * d0[e], 0.2)
+    speed = max((rate + params[P_FOLLOW_GAIN] * (lead_gap - wanted)) * own, 0.0)
     if extra > 0.0 and lead_gap > params[P_FOLLOW_GAP]:
         # A run-up opens the gap gently, at RUNUP_SPEED of the car ahead's speed.
-        speed = max(speed, RUNUP_SPEED * lead_v)
+        speed = max(speed, RUNUP_SPEED * rate * own)
     return speed

@@ -163,8 +163,8 @@ class TestKernelMaths:
         t = np.arange(steps) * kernel.PREDICT_DT
         np.testing.assert_allclose(traj[0, 0], 1.5 * t, atol=1e-12)
         np.testing.assert_allclose(traj[0, 1], 2.0 * t, atol=1e-12)
-        np.testing.assert_allclose(traj[0, 2], np.where(t <= 2.0, 0.5 * t**2, 2.0 + 2.0 * (t - 2.0)),
-                                   atol=1e-12)
+        np.testing.assert_allclose(
+            traj[0, 2], np.where(t <= 2.0, 0.5 * t**2, 2.0 + 2.0 * (t - 2.0)), atol=1e-12)
 
     def test_predict_keeps_each_cars_acceleration(self) -> None:
         # On a flat 4 m/s profile, ratio 1, cap 4 m/s: a car cruising at 1.2 m/s (acceleration
@@ -193,6 +193,42 @@ class TestKernelMaths:
                        np.ones((1, 1)), traj)
         want = np.concatenate([0.2 * np.arange(6), 1.0 + 0.125 + 0.05 * np.arange(15)])
         np.testing.assert_allclose(traj[0, 0], want, atol=1e-12)
+
+    @staticmethod
+    def _follow(lead_top: float, other_gap: float) -> float:
+        """``_follow_speed`` in a left bend of constant curvature 0.5 1/m (20 m lap, 10
+        samples a metre): the car at s = 0 on the inside (d = 0.2 m, where the track moves
+        past at 1 - 0.5 * 0.2 = 0.9 of its speed), a car 1 m of centre line ahead on the
+        centre line at 2 m/s, and a second slot ``other_gap`` m along (0: empty)."""
+        params = np.zeros(kernel.NUM_PARAMS)
+        params[[kernel.P_HALF_WID, kernel.P_HALF_LEN, kernel.P_LAT_MARGIN, kernel.P_FOLLOW_GAP,
+                kernel.P_FOLLOW_GAIN, kernel.P_V_MAX]] = [0.1, 0.15, 0.1, 0.2, 1.5, 4.0]
+        centre = np.zeros((3, 200))
+        centre[0] = 0.5
+        zeros = np.zeros((1, 2))
+        return kernel._follow_speed(
+            0, np.zeros(1), np.array([0.2]), np.array([2.0]), np.array([[1.0, other_gap]]),
+            zeros, zeros, np.array([[2.0, 2.0]]), zeros, np.full((1, 2), 0.15),
+            np.full((1, 2), 0.1), np.array([[True, other_gap != 0.0]]),
+            np.array([[lead_top, 4.0]]), centre, 10.0, 20.0, params, 0.0)
+
+    def test_follow_speed_in_a_bend(self) -> None:
+        # The bumper gap in metres driven: 1 m of centre line at the cars' mean offset 0.1 m
+        # is 1 * (1 - 0.5 * 0.1) = 0.95 m, less two half lengths: 0.65 m; 0.45 m more than
+        # the follow gap. The car ahead covers the centre line at 2 / (1 - 0) = 2 m/s, which
+        # the car on the inside matches at 0.9 of the speed: (2 + 1.5 * 0.45) * 0.9 = 2.4075.
+        # (Matching the speed, 2.75 m/s, would close the gap at 2.75 / 0.9 - 2 m/s.) The car
+        # ahead has not been near top speed lately (2 m/s of 4): the follow gap holds.
+        assert self._follow(2.0, 0.0) == pytest.approx(2.4075, abs=1e-12)
+
+    def test_follow_speed_close_behind_a_lone_rival(self) -> None:
+        # A car ahead that reached top speed lately (4 m/s), alone: the steady gap (0 m)
+        # instead, (2 + 1.5 * 0.65) * 0.9 = 2.6775. A third car 2 m behind (within
+        # PACK_RANGE, 3 m) makes a pack, and the follow gap holds again; one 5 m behind does
+        # not.
+        assert self._follow(4.0, 0.0) == pytest.approx(2.6775, abs=1e-12)
+        assert self._follow(4.0, -2.0) == pytest.approx(2.4075, abs=1e-12)
+        assert self._follow(4.0, -5.0) == pytest.approx(2.6775, abs=1e-12)
 
 
 # ---------------------------------------------------------------------- lanes
