@@ -21,9 +21,10 @@ def test_shipped_league_configs_are_the_product_ones() -> None:
 def test_shipped_training_configs_are_named_by_policy_and_step() -> None:
     shipped = shipped_configs("train")
     assert sorted(shipped) == ["camera_generalist/anneal", "camera_generalist/bspline",
+                               "camera_generalist/fullpace",
                                "camera_generalist/hairpins", "camera_generalist/imitate",
-                               "camera_generalist/pace", "camera_generalist/settle",
-                               "camera_generalist/wide",
+                               "camera_generalist/pace", "camera_generalist/routes",
+                               "camera_generalist/settle", "camera_generalist/wide",
                                "camera_racer/imitate", "obstacle_generalist/anneal",
                                "obstacle_generalist/bots", "obstacle_generalist/circuits",
                                "obstacle_generalist/imitate",
@@ -57,8 +58,9 @@ def test_unknown_names_list_the_shipped_ones() -> None:
         resolve_config("finishing", "league")
     # A training config is not a league config, and the other way round.
     with pytest.raises(FileNotFoundError, match="shipped: camera_generalist/anneal, "
-                       "camera_generalist/bspline, camera_generalist/hairpins, "
-                       "camera_generalist/imitate, camera_generalist/pace, "
+                       "camera_generalist/bspline, camera_generalist/fullpace, "
+                       "camera_generalist/hairpins, camera_generalist/imitate, "
+                       "camera_generalist/pace, camera_generalist/routes, "
                        "camera_generalist/settle, camera_generalist/wide, "
                        "camera_racer/imitate, obstacle_generalist/anneal, "
                        "obstacle_generalist/bots, "
