@@ -59,7 +59,20 @@ def obstacles(name: str) -> str | None:
                      f"({', '.join(s['routes_missing_targets']) or 'all'}); "
                      f"{s['crashes'] / s['laps']:.2f} crashes, {s['resets'] / s['laps']:.2f} "
                      f"resets a lap")
+    cells.append(alone_shipped(name))
     return f"| {name} | {' | '.join(cells)} |"
+
+
+def alone_shipped(name: str) -> str:
+    """The mean lap alone against racing_line's over the shipped tracks, from the time-trial
+    evaluate output beside the JSON (`NAME_time_trial_shipped.txt`), or '-' without one."""
+    path = HERE / f"{name}_time_trial_shipped.txt"
+    if not path.exists():
+        return "-"
+    for line in path.read_text().splitlines():
+        if line.startswith("mean lap vs racing_line's:"):
+            return line.split(":", 1)[1].split(" on average")[0].strip()
+    return "-"
 
 
 SHIPPED_PPO = json.loads((HERE.parent / "ppo_generalist.json").read_text())
@@ -85,10 +98,12 @@ def main() -> None:
             if row:
                 print(row.replace(f"| {path.stem} |", f"| {folder.name}/{path.stem} |", 1))
     print()
-    print("| run | object avoidance: routes on target | head to bot: routes on target |")
-    print("|---|---|---|")
-    for seed in ("shipped/obstacle_generalist", "obstacle/obstacle_s0", "obstacle/obstacle_s1",
-                 "obstacle/obstacle_s2"):
+    print("| run | object avoidance: routes on target | head to bot: routes on target | "
+          "alone on the shipped tracks vs racing_line |")
+    print("|---|---|---|---|")
+    for seed in ("shipped/obstacle_generalist",
+                 *(f"{folder}/obstacle_s{seed}" for folder in ("obstacle", "obstacle_fine")
+                   for seed in range(3))):
         row = obstacles(seed)
         if row:
             print(row)
