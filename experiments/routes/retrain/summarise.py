@@ -29,7 +29,7 @@ def time_trial(name: str, reference: dict | None, within: float,
                folder: Path = HERE) -> str | None:
     path = folder / f"{name}.json"
     data = json.loads(path.read_text()) if path.exists() else None
-    if data is None or data["race_type"] != "time_trial":
+    if data is None or data.get("race_type") != "time_trial":
         return None
     laps_missed, pace_missed = [], []
     ref_lap = {r["route"]: r["mean_lap_s"] for r in (reference or {}).get("routes", [])}
