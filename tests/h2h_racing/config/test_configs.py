@@ -27,7 +27,7 @@ def test_shipped_training_configs_are_named_by_policy_and_step() -> None:
                                "camera_generalist/settle", "camera_generalist/wide",
                                "camera_racer/imitate", "obstacle_generalist/anneal",
                                "obstacle_generalist/bots", "obstacle_generalist/circuits",
-                               "obstacle_generalist/imitate",
+                               "obstacle_generalist/imitate", "obstacle_generalist/routes",
                                "obstacle_generalist/settle", "obstacle_generalist/tight",
                                "ppo_generalist/finetune", "ppo_generalist/imitate",
                                "ppo_generalist/routes", "ppo_generalist/routes_imitate",
@@ -65,7 +65,7 @@ def test_unknown_names_list_the_shipped_ones() -> None:
                        "camera_racer/imitate, obstacle_generalist/anneal, "
                        "obstacle_generalist/bots, "
                        "obstacle_generalist/circuits, obstacle_generalist/imitate, "
-                       "obstacle_generalist/settle, "
+                       "obstacle_generalist/routes, obstacle_generalist/settle, "
                        "obstacle_generalist/tight, ppo_generalist/finetune, "
                        "ppo_generalist/imitate, ppo_generalist/routes, "
                        "ppo_generalist/routes_imitate, racing_line_student/imitate"):
