@@ -2,7 +2,11 @@
 
 A racing line is a lateral offset ``d*(s)`` from the centre line on a uniform grid of
 centre-line arc positions ``s_i = i L / K``. With ``C_i`` the centre point and ``n_i`` the
-left normal at ``s_i``, the line's points are ``P_i = C_i + d_i n_i``: linear in ``d``.
+left normal at ``s_i``, the line's points are ``P_i = C_i + d_i n_i``: linear in ``d``. The
+normals are :func:`smooth_frame`'s, which turn evenly along the lap, not the track's own,
+which turn by a whole corner at each waypoint (tracks drawn through waypoints 30-80 cm apart,
+as DeepRacer's routes, would otherwise get a line kept to the outside of every bend); the
+line is then handed to the drivers as offsets in the track's own frame (:func:`track_offsets`).
 The line minimises the summed squared second differences of its points (a discrete
 curvature energy; for near-uniform spacing ``|P_{i+1} - 2 P_i + P_{i-1}| ~ kappa_i ds^2``)
 
@@ -138,8 +142,13 @@ def min_curvature_offsets(track: Track, ds: float = 0.2, margin: float = 0.12,
             care (on long straights).
         reweightings: Re-weighting passes after the first solve.
 
+    The offsets are along :func:`smooth_frame`'s normals, not the track's own (which turn at
+    each waypoint): the line's points are ``centre + d * normal`` of that frame, and
+    :func:`compute_race_line` re-expresses them in the track's frame.
+
     Returns:
-        ``(s, d)``: the grid, shape (K,) [m], and the offsets, shape (K,) [m].
+        ``(s, d)``: the grid, shape (K,) [m], and the offsets in :func:`smooth_frame`,
+        shape (K,) [m].
 
     Raises:
         ValueError: If the track is narrower than ``2 * margin`` somewhere.
@@ -154,9 +163,7 @@ def min_curvature_offsets(track: Track, ds: float = 0.2, margin: float = 0.12,
     if np.any(hi < lo):
         raise ValueError(f"track {track.name!r} is narrower than 2 * margin = {2 * margin} m "
                          f"somewhere; use a smaller margin")
-    centre = track.point_at(s, 0.0)
-    psi = track.heading_at(s)
-    normal = np.stack([-np.sin(psi), np.cos(psi)], axis=1)
+    centre, normal = smooth_frame(track, s)
     d = np.zeros(k)
     for _ in range(reweightings + 1):
         points = centre + d[:, None] * normal
@@ -170,6 +177,46 @@ def min_curvature_offsets(track: Track, ds: float = 0.2, margin: float = 0.12,
         d = box_qp(diag + regularisation, off1, off2, lin, lo, hi, d,
                    rho=1e-4 * (step / 0.1) ** 4)
     return s, d
+
+
+def smooth_frame(track: Track, s: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Return centre points and smoothly turning unit left normals at arc positions ``s``.
+
+    The track's own normal (:meth:`Track.heading_at`) is its segment's, turned through each
+    waypoint within 1 cm: the exact inverse of the env's projection, but on a track drawn
+    through waypoints tens of cm apart it turns by the whole corner angle at each waypoint.
+    Offset points ``C + d n`` in that frame run backwards on the inside of every waypoint (by
+    ``2 |d| tan(turn / 2)``: 12 cm at 0.38 m from a 0.6 m-gap waypoint on a 1 m-radius bend)
+    and leave a gap on the outside, so the curvature energy sees a zig-zag wherever the line
+    takes the inside and the optimiser keeps it to the outside of every bend: a one-sided,
+    slow line. Here the heading is interpolated linearly in ``s`` between segment midpoints
+    instead, so the normal turns evenly along the lap; on a finely drawn track (5 cm
+    waypoints) the two frames differ by well under a millimetre at the offsets used.
+
+    A point ``C + d n`` of this frame is at most ``|d|`` from the centre polyline (``C`` is
+    on it), so the optimiser's bounds on ``d`` keep the line on the track in either frame.
+
+    Args:
+        track: The track.
+        s: Arc positions, shape (K,) [m].
+
+    Returns:
+        ``(centre, normal)``, each shape (K, 2).
+    """
+    length = track.length
+    vertex_s = np.append(track.vertex_s, length)
+    seg = np.diff(vertex_s)
+    keep = seg > 1e-9
+    mids = (vertex_s[:-1] + 0.5 * seg)[keep]
+    psi = np.unwrap(track.heading_at(mids))
+    # One lap turns the heading by a multiple of 2 pi (the wrap from the last segment to
+    # the first is a small turn, as every other).
+    turn = psi[-1] - psi[0] + np.mod(psi[0] - psi[-1] + math.pi, 2.0 * math.pi) - math.pi
+    knots = np.concatenate([mids - length, mids, mids + length])
+    values = np.concatenate([psi - turn, psi, psi + turn])
+    heading = np.interp(np.remainder(s, length), knots, values)
+    normal = np.stack([-np.sin(heading), np.cos(heading)], axis=1)
+    return track.point_at(s, 0.0), normal
 
 
 def curvature_qp_bands(centre: FloatArray, normal: FloatArray, weight: FloatArray,
@@ -276,6 +323,37 @@ def speed_profile(curvature: FloatArray, seg_len: FloatArray, v_max: float, a_la
     return out
 
 
+def catmull_rom(points: FloatArray, u: FloatArray) -> FloatArray:
+    """Return the closed uniform Catmull-Rom spline through ``points`` (shape (K, 2)) at
+    parameters ``u`` (shape (M,); point i at ``u = i``, periodic in K), shape (M, 2)."""
+    k = len(points)
+    u = np.remainder(u, k)
+    i = np.floor(u).astype(np.int64)
+    t = (u - i)[:, None]
+    p0, p1, p2, p3 = (points[(i + j) % k] for j in (-1, 0, 1, 2))
+    return 0.5 * (2.0 * p1 + (p2 - p0) * t + (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3) * t**2
+                  + (3.0 * p1 - p0 - 3.0 * p2 + p3) * t**3)
+
+
+def track_offsets(track: Track, s: FloatArray, points: FloatArray) -> FloatArray:
+    """Return the offsets in the track's own frame of a closed line through ``points``.
+
+    The drivers read the line as an offset from the centre line in the track's frame (the
+    env's projection: ``core.s``, ``core.d``, :meth:`Track.point_at`); the line's points
+    (shape (K, 2) [m], in lap order from near arc position ``s[0]``) are projected onto the
+    track and their offsets interpolated at the arc positions ``s`` (shape (K,) [m]).
+    Projected positions stall on the outside of a waypoint and skip on its inside; a running
+    maximum keeps them in order for the interpolation.
+    """
+    length = track.length
+    s_proj, d_proj = track.project(points)
+    # Unwrap each projected position to within half a lap of its grid position.
+    s_proj = s + np.remainder(s_proj - s + 0.5 * length, length) - 0.5 * length
+    s_proj = np.maximum.accumulate(s_proj)
+    return np.interp(s, np.concatenate([s_proj - length, s_proj, s_proj + length]),
+                     np.tile(d_proj, 3))
+
+
 def compute_race_line(track: Track, car: CarParams, v_max: float, *, ds: float = 0.1,
                       qp_ds: float = 0.2, margin: float = 0.12, peak_emphasis: float = 0.0,
                       grip_factor: float = 0.6,
@@ -319,11 +397,15 @@ def compute_race_line(track: Track, car: CarParams, v_max: float, *, ds: float =
     s_coarse, d_coarse = per_track[path_key]
     k = max(8, round(track.length / ds))
     s = np.arange(k) * (track.length / k)
-    d = np.interp(s, np.append(s_coarse, track.length), np.append(d_coarse, d_coarse[0]))
+    # The optimised points, not their offsets, are interpolated onto the finer grid: offsets
+    # carried along the centre polyline would bring back its kink at every waypoint (a
+    # corner of 40 degrees on a track drawn through 70 cm waypoints).
+    centre, normal = smooth_frame(track, s_coarse)
+    points = catmull_rom(centre + d_coarse[:, None] * normal, s / (track.length / len(s_coarse)))
     left, right = track.half_widths_at(s)
-    # The bounds vary along s where the width does; clamp the interpolated line to them.
-    d = np.minimum(np.maximum(d, -(right - margin)), left - margin)
-    points = track.point_at(s, d)
+    # The bounds vary along s where the width does; clamp the line's offsets to them.
+    d = np.minimum(np.maximum(track_offsets(track, s, points), -(right - margin)),
+                   left - margin)
     kappa, seg_len = line_curvature(points, smooth=max(1, round(qp_ds / ds)))
     speed = speed_profile(kappa, seg_len, v_max, grip_factor * car.friction * GRAVITY,
                           accel_factor * car.max_accel, brake_factor * car.max_brake)

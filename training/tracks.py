@@ -240,9 +240,10 @@ class ProceduralTracks:
     waypoint_gap: tuple[float, float] = (0.05, 0.05)
     """``(low, high)`` spacing of every track's waypoints [m] (``resample``): DeepRacer's files
     put them 0.06-0.98 m apart, evenly on most routes; the default, the generator's own 5 cm,
-    re-draws nothing. Not for a ``racing_line`` teacher: its line keeps to one side of a
-    re-drawn track, 11-19 % slower a lap, and its students learned that pace on every track
-    (``experiments/routes/retrain/obstacle_fine``)."""
+    re-draws nothing. Up to 0.1.0 a ``racing_line`` teacher kept to one side of a re-drawn
+    track, 11-19 % slower a lap, and its students learned that pace on every track
+    (``experiments/routes/retrain/obstacle_fine``); its line now matches the finely drawn
+    track's (``policies.racing_line.smooth_frame``)."""
     circuit_corners: tuple[str, ...] = ("arcs",)
     """How the circuits are drawn (``CIRCUIT_STYLES``: ``"arcs"``, ``"bspline"``,
     ``"hairpins"``, ``"long"``); one of them drawn per circuit when several are given."""
