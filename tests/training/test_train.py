@@ -42,8 +42,12 @@ class TestPolicyFile:
         assert payload["env_config"]["track"] == "oval"
         assert payload["training"]["iterations"] == 2
 
-    def test_reloaded_policy_acts_exactly_like_the_trained_actor(
+    def test_reloaded_policy_acts_like_the_trained_actor(
             self, trained: tuple[Path, object]) -> None:
+        # The file's driver acts in numpy float32 (policies/trained_numpy.py), torch's actor
+        # through MKL: the same sums in another order, within a few float32 ulps of 1
+        # (tests/policies/test_trained_numpy.py allows 8; a wrong weight or layer is off by
+        # orders of magnitude more).
         path, runner = trained
         env = h2h_racing.parallel_env(track="oval", num_cars=1, race_type="time_trial")
         env.reset(seed=4)
@@ -56,7 +60,8 @@ class TestPolicyFile:
         actor.eval()
         with torch.inference_mode():
             expected = actor(TensorDict({"policy": obs}, batch_size=[1])).numpy()
-        assert np.array_equal(policy.act(env.core, 0), np.clip(expected, -1, 1))
+        np.testing.assert_allclose(policy.act(env.core, 0), np.clip(expected, -1, 1), rtol=0,
+                                   atol=8 * np.finfo(np.float32).eps)
 
     def test_observation_mismatch_is_a_clear_error(self, trained: tuple[Path, object]) -> None:
         env = h2h_racing.parallel_env(track="oval", num_cars=2, opponent_slots=3)
