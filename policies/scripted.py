@@ -251,7 +251,10 @@ class RacingLine:
         if core.num_cars > 1 or core.num_bots:
             offset, speed = self._avoid(core, car, s_target, offset, speed)
         offset, speed = avoid_obstacles(core, car, s_target, offset, speed, **self.box_margins)
-        target = core.track.point_at(s_target, offset)
+        # The line's own point, moved by what the avoidance added: near a coarse waypoint the
+        # track's frame, whose normal turns there, puts the line's offset a few cm off it.
+        target = (core.track.point_at(s_target, offset) + line.point_at(s_target)
+                  - core.track.point_at(s_target, line.offset_at(s_target)))
         steer = pursuit_steer(core, car, target)
         return to_action(core, steer, speed)
 
