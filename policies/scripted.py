@@ -245,16 +245,18 @@ class RacingLine:
         v = core.speed[:, car]
         ld = lookahead(v, self.lookahead_base, self.lookahead_gain, 1.5)
         s_target = s + ld
-        offset = line.offset_at(s_target)
+        offset = on_line = line.offset_at(s_target)
         horizon = np.maximum(v, 1.0) * self.speed_preview
         speed = line.min_speed_ahead(s, horizon)
         if core.num_cars > 1 or core.num_bots:
             offset, speed = self._avoid(core, car, s_target, offset, speed)
         offset, speed = avoid_obstacles(core, car, s_target, offset, speed, **self.box_margins)
-        # The line's own point, moved by what the avoidance added: near a coarse waypoint the
-        # track's frame, whose normal turns there, puts the line's offset a few cm off it.
-        target = (core.track.point_at(s_target, offset) + line.point_at(s_target)
-                  - core.track.point_at(s_target, line.offset_at(s_target)))
+        target = core.track.point_at(s_target, offset)
+        # On the line, its own point: near a coarse waypoint the track's frame, whose normal
+        # turns there, puts the line's offset a few cm off it. Off the line (round a car or a
+        # box) the track's frame, in which the others are placed, rules.
+        keep = offset == on_line
+        target[keep] = line.point_at(s_target[keep])
         steer = pursuit_steer(core, car, target)
         return to_action(core, steer, speed)
 
