@@ -44,6 +44,10 @@ FloatArray = npt.NDArray[np.float64]
 
 EDGE = 0.03
 """Distance kept between the car's centre and the border when passing a box [m]."""
+KINK = 0.03
+"""Smallest jump of the track's heading between points 2 cm apart that counts as a coarse
+waypoint's corner (the shipped tracks' largest is 0.007; DeepRacer's routes have 0.1-0.6
+by their boxes) [rad]."""
 
 
 def _smoothstep(x: FloatArray) -> FloatArray:
@@ -137,7 +141,17 @@ def avoid_obstacles(core: RaceCore, car: int, s_target: FloatArray, offset: Floa
     room_left = left - (box_d + half_w + out_left)
     room_right = (box_d - half_w - out_right) + right
     side = np.where(room_left >= room_right, 1.0, -1.0)
-    need = half_w + 0.5 * params.width + clearance + np.where(side > 0, out_left, out_right)
+    # Where the track is drawn through a coarse waypoint by the box, its heading jumps there by
+    # the whole corner and the box lies along one segment: the car passes it turned to it by
+    # up to those corners, its ends swinging out by half its length times the sine of them.
+    # (On a finely drawn bend the jumps are under a hundredth of a radian: no swing.)
+    along = np.linspace(-1.0, 1.0, 41) * (half_len + half_body)
+    heading = core.track.heading_at(core.obstacle_s[..., None] + along)
+    jump = np.abs(np.remainder(np.diff(heading, axis=-1) + np.pi, 2.0 * np.pi) - np.pi)
+    kink = np.where(jump > KINK, jump, 0.0).sum(axis=-1)
+    swing = half_body * np.sin(np.minimum(kink, 0.5 * np.pi))
+    need = (half_w + 0.5 * params.width + clearance + np.where(side > 0, out_left, out_right)
+            + swing)
     # Beside a box on a narrow track the car may put its outer wheels over the border (it is
     # off track only with all four off), keeping its centre EDGE inside.
     bound = np.clip(box_d + side * need, -right + EDGE, left - EDGE)

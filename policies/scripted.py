@@ -46,6 +46,11 @@ from h2h_racing.track.shape import Track
 
 FloatArray = npt.NDArray[np.float64]
 ActionArray = npt.NDArray[np.float32]
+REJOIN = 1.2
+"""Distance behind ``racing_line`` within which a car it has just passed keeps its return to
+the line gradual [m]."""
+REJOIN_STEP = 0.2
+"""Largest lateral distance from the car to its target while it rejoins the line [m]."""
 
 
 @runtime_checkable
@@ -292,6 +297,13 @@ class RacingLine:
             lane_d = core.bot_lane * 0.5 * np.where(core.bot_lane >= 0, bot_left, bot_right)
             low_of = np.concatenate([core.d, np.minimum(core.bot_d, lane_d)], axis=1)
             high_of = np.concatenate([core.d, np.maximum(core.bot_d, lane_d)], axis=1)
+        # Just past a car (up to REJOIN behind it), the target comes back to the line by at
+        # most REJOIN_STEP from where the car is: a line on the far side of the track is
+        # rejoined over a few steps, not with one swing at full speed.
+        passed = (others & (gap < -params.length - 0.15) & (gap > -REJOIN)).any(axis=1)
+        my_d = core.d[:, car]
+        offset = np.where(passed, my_d + np.clip(offset - my_d, -REJOIN_STEP, REJOIN_STEP),
+                          offset)
         near = others & (gap > -params.length - 0.15) & (gap < self.follow_gap)
         if not near.any():
             return offset, speed
@@ -302,7 +314,6 @@ class RacingLine:
         other_d = lateral_of[rows, nearest]
         other_low, other_high = low_of[rows, nearest], high_of[rows, nearest]
         other_v = speed_of[rows, nearest]
-        my_d = core.d[:, car]
         left, right = core.track.half_widths_at(s_target)
         lo, hi = -right + self.margin, left - self.margin
         clearance = params.width + 0.15
