@@ -154,12 +154,11 @@ class BatchedRacingLine:
 
     Args:
         drivers: The runs' ``RacingLine`` drivers, reset on their views (their lines set).
-        tracks: Each run's track, as its view has it (``view.track``).
         block: Copies of each run; run r has the rows ``r * block ... (r + 1) * block - 1``
             of the rows ``act`` is given.
     """
 
-    def __init__(self, drivers: Sequence[RacingLine], tracks: Sequence[Any], block: int) -> None:
+    def __init__(self, drivers: Sequence[RacingLine], block: int) -> None:
         first = drivers[0]
         self.settings = (first.lookahead_base, first.lookahead_gain, first.speed_preview)
         self.block = block
@@ -168,13 +167,13 @@ class BatchedRacingLine:
         lines = [d.line for d in drivers]
         self.length = np.array([line.track_length for line in lines])[self.run]
         self.ds = np.array([line.track_length / len(line.s) for line in lines])
-        self.offsets = RowTables([(line._grid, line._closed["d"]) for line in lines])
         self.speeds = RowTables([(line._grid, line._closed["speed"]) for line in lines])
-        geo = [t._geo for t in tracks]
-        self.track_length = np.array([t.length for t in tracks])[self.run]
-        self.heading = RowTables([g["heading_knots"] for g in geo])
-        self.cx = RowTables([(g["interp_s"], g["cx"]) for g in geo])
-        self.cy = RowTables([(g["interp_s"], g["cy"]) for g in geo])
+        # RaceLine.point_at: the line's own points (alone on its line, RacingLine steers
+        # at them), closed by the first.
+        self.px = RowTables([(line._grid, np.append(line.points[:, 0], line.points[0, 0]))
+                             for line in lines])
+        self.py = RowTables([(line._grid, np.append(line.points[:, 1], line.points[0, 1]))
+                             for line in lines])
 
     @staticmethod
     def fits(drivers: Sequence[Any], core: Any) -> bool:
@@ -214,30 +213,27 @@ class BatchedRacingLine:
         v = core.speed[rows, car]
         ld = lookahead(v, base, gain, 1.5)
         s_target = s + ld
-        offset = self.offsets.interp(np.remainder(s_target, self.length), self.run)
         horizon = np.maximum(v, 1.0) * preview
         speed = self._min_speed_ahead(s, horizon)
-        # Track.point_at of each run's track.
-        sw = np.remainder(np.asarray(s_target, dtype=np.float64), self.track_length)
-        psi = self.heading.interp(sw, self.run)
-        x = self.cx.interp(sw, self.run) - offset * np.sin(psi)
-        y = self.cy.interp(sw, self.run) + offset * np.cos(psi)
-        target = np.stack(np.broadcast_arrays(x, y), axis=-1)
+        wrapped = np.remainder(s_target, self.length)
+        target = np.stack([self.px.interp(wrapped, self.run), self.py.interp(wrapped, self.run)],
+                          axis=-1)
         rows_core = SimpleNamespace(config=core.config, yaw=core.yaw[rows],
                                     position=core.position[rows])
         steer = pursuit_steer(rows_core, car, target)  # type: ignore[arg-type]
         return to_action(rows_core, steer, speed)  # type: ignore[arg-type]
 
 
-def batched_driver(drivers: Sequence[Any], views: Sequence[Any], core: Any,
+def batched_driver(drivers: Sequence[Any], core: Any,
                    block: int) -> BatchedPolicy | BatchedRacingLine | None:
-    """A batched driver for the runs of ``drivers`` (same spec, reset on ``views``, ``block``
-    copies each), or None where they act one run at a time (see the module docstring)."""
+    """A batched driver for the runs of ``drivers`` (same spec, each reset on its run's view
+    of ``core``, ``block`` copies each), or None where they act one run at a time (see the
+    module docstring)."""
     if len(drivers) < 2:
         return None
     if BatchedPolicy.fits(drivers):
         policy = BatchedPolicy(drivers[0], block)
         return policy if policy.invariant(len(drivers)) else None
     if BatchedRacingLine.fits(drivers, core):
-        return BatchedRacingLine(drivers, [view.track for view in views], block)
+        return BatchedRacingLine(drivers, block)
     return None

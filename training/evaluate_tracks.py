@@ -176,8 +176,7 @@ def _actors(core: RaceCore, runs: Sequence[Run], parts: list[tuple[Any, Any, Any
         rows = [every[parts[i][0]] for i in members]
         batched = None
         if all(len(r) == copies for r in rows):
-            batched = batched_driver([parts[i][2] for i in members],
-                                     [parts[i][1] for i in members], core, copies)
+            batched = batched_driver([parts[i][2] for i in members], core, copies)
         if batched is not None:
             union = np.concatenate(rows)
 

@@ -64,7 +64,7 @@ def test_batched_driver_acts_as_each_runs_driver(spec: str) -> None:
     every = np.arange(core.num_envs)
     union = np.concatenate([every[rows] for rows, _ in views])
     with one_torch_thread():
-        batched = batched_driver(drivers, [view for _, view in views], core, block)
+        batched = batched_driver(drivers, core, block)
         assert isinstance(batched, BatchedPolicy if spec == "ppo_generalist"
                           else BatchedRacingLine)
         config = core.config
