@@ -145,11 +145,13 @@ def avoid_obstacles(core: RaceCore, car: int, s_target: FloatArray, offset: Floa
     # the whole corner and the box lies along one segment: the car passes it turned to it by
     # up to those corners, its ends swinging out by half its length times the sine of them.
     # (On a finely drawn bend the jumps are under a hundredth of a radian: no swing.)
+    # Only the boxes near a car are looked at: the others' bounds are not used.
     along = np.linspace(-1.0, 1.0, 41) * (half_len + half_body)
-    heading = core.track.heading_at(core.obstacle_s[..., None] + along)
+    heading = core.track.heading_at(core.obstacle_s[near][:, None] + along)
     jump = np.abs(np.remainder(np.diff(heading, axis=-1) + np.pi, 2.0 * np.pi) - np.pi)
     kink = np.where(jump > KINK, jump, 0.0).sum(axis=-1)
-    swing = half_body * np.sin(np.minimum(kink, 0.5 * np.pi))
+    swing = np.zeros(near.shape)
+    swing[near] = half_body * np.sin(np.minimum(kink, 0.5 * np.pi))
     need = (half_w + 0.5 * params.width + clearance + np.where(side > 0, out_left, out_right)
             + swing)
     # Beside a box on a narrow track the car may put its outer wheels over the border (it is

@@ -84,9 +84,9 @@ PREDICT_STEPS = 30
 ACCEL_TIME = 0.3
 """Time over which another car's acceleration is smoothed [s]."""
 PACE_TIME = 1.0
+"""Time over which another car's pace ratio is smoothed [s]."""
 TOP_DECAY = 0.3
 """Rate at which the top speed remembered of each car fades [m/s per s]."""
-"""Time over which another car's pace ratio is smoothed [s]."""
 HOLD_GRIP = 0.8
 """Share of the driver's grip used when holding an offset beside a car (parallel to the
 centre line, whose bends are less smooth than the lanes')."""

@@ -256,12 +256,13 @@ class RacingLine:
         if core.num_cars > 1 or core.num_bots:
             offset, speed = self._avoid(core, car, s_target, offset, speed)
         offset, speed = avoid_obstacles(core, car, s_target, offset, speed, **self.box_margins)
-        target = core.track.point_at(s_target, offset)
         # On the line, its own point: near a coarse waypoint the track's frame, whose normal
         # turns there, puts the line's offset a few cm off it. Off the line (round a car or a
         # box) the track's frame, in which the others are placed, rules.
-        keep = offset == on_line
-        target[keep] = line.point_at(s_target[keep])
+        target = line.point_at(s_target)
+        moved = offset != on_line
+        if moved.any():
+            target[moved] = core.track.point_at(s_target[moved], offset[moved])
         steer = pursuit_steer(core, car, target)
         return to_action(core, steer, speed)
 
