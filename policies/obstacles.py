@@ -19,9 +19,11 @@ bends the driver's lateral target round every box near the car:
   across by ``dy`` before the box's front ``D`` ahead (two boxes close together in opposite
   lanes make a tight slalom), at ``D sqrt(a_lat / (2 dy))``, the speed at which a parabolic
   move across stays within the lateral acceleration ``a_lat``;
-* round a box on a bend, at ``sqrt(bend_grip mu g / k)``, with ``k`` the curvature of the
-  passing path (the lane at the passing offset): on the inside it is tighter than the racing
-  line the speed profile was made for, and the car slid into boxes in 0.5 m corners.
+* round a box on a bend, at ``sqrt(bend_grip mu g / k)``, with ``k`` the largest curvature of
+  the passing path (the lane at the passing offset) from the start of the approach ramp to the
+  box's end, the part behind the car left out: on the inside it is tighter than the racing
+  line the speed profile was made for, and the car slid into boxes in 0.5 m corners, and ran
+  wide into boxes just past a corner it rounded on that offset.
 
 The ramp is evaluated at the pursuit target (ahead of the car) for the way in and at the car's
 front for the way out, so the body clears the box before the target moves back. Boxes are
@@ -48,6 +50,9 @@ KINK = 0.03
 """Smallest jump of the track's heading between points 2 cm apart that counts as a coarse
 waypoint's corner (the shipped tracks' largest is 0.007; DeepRacer's routes have 0.1-0.6
 by their boxes) [rad]."""
+PATH_SAMPLES = 41
+"""Points at which the passing path's curvature is read, from the start of a box's approach
+ramp to the end of the box's overlap with the car's body (about 6 cm apart)."""
 
 
 def _smoothstep(x: FloatArray) -> FloatArray:
@@ -133,11 +138,9 @@ def avoid_obstacles(core: RaceCore, car: int, s_target: FloatArray, offset: Floa
     left, right = core.track.half_widths_at(core.obstacle_s)
     box_d = core.obstacle_d
     half_w = 0.5 * cfg.obstacle_width
-    # Centre-line curvature behind, at and ahead of each box (where the body overlaps it).
-    span = core.obstacle_s[..., None] + np.array([-1.0, 0.0, 1.0]) * (half_len + half_body)
-    k_span = core.track.curvature_at(span)
     # A straight box on a bend: its ends stick out of its lane towards the outside.
-    out_left, out_right = bend_protrusion(k_span[..., 1], box_d, half_len)
+    out_left, out_right = bend_protrusion(core.track.curvature_at(core.obstacle_s), box_d,
+                                          half_len)
     room_left = left - (box_d + half_w + out_left)
     room_right = (box_d - half_w - out_right) + right
     side = np.where(room_left >= room_right, 1.0, -1.0)
@@ -167,8 +170,18 @@ def avoid_obstacles(core: RaceCore, car: int, s_target: FloatArray, offset: Floa
         out = np.where(wrong, out + f * (b - out), out)
     capped = np.where(presence.max(axis=1) > 0.0, np.minimum(speed, speed_cap), speed)
     # Round a box on a bend the detour's radius is the lane's at the passing offset, tighter
-    # than the racing line's on the inside: keep v^2 |k| within bend_grip of mu g there.
-    k_path = np.abs(k_span / np.maximum(1.0 - k_span * bound[..., None], 0.1)).max(axis=-1)
+    # than the racing line's on the inside: keep v^2 |k| within bend_grip of mu g there. The
+    # car is steered onto that offset over the approach ramp, so a bend it rounds on its way
+    # to the box counts too, not only the box's own (boxes 1-1.5 m past 0.55-0.75 m corners on 3
+    # DeepRacer routes: the car took the corner's inside at the box's own bend speed, ran
+    # wide and hit the box). The path behind the car's rear no longer matters.
+    along = np.linspace(-(half_len + half_body + 0.05 + approach), half_len + half_body,
+                        PATH_SAMPLES)
+    ahead_of_rear = gap[near][:, None] + along >= -half_body
+    k_near = core.track.curvature_at(core.obstacle_s[near][:, None] + along)
+    k_lane = np.abs(k_near / np.maximum(1.0 - k_near * bound[near][:, None], 0.1))
+    k_path = np.zeros(near.shape)
+    k_path[near] = np.where(ahead_of_rear, k_lane, 0.0).max(axis=-1)
     v_bend = np.sqrt(bend_grip * params.friction * GRAVITY / np.maximum(k_path, 1e-6))
     capped = np.minimum(capped, np.where(presence > 0.0, v_bend, np.inf).min(axis=1))
     # Slow down where the car must still move over by dy before a box's front, D ahead: a

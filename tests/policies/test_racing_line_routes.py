@@ -257,6 +257,41 @@ class TestObjectAvoidance:
             assert out[0] == pytest.approx(expected_offset, abs=1e-9)
             assert speed[0] == pytest.approx(expected_speed)
 
+    def test_the_bend_before_a_box_caps_the_speed_by_hand(self) -> None:
+        # A stadium: 6 m straights and left-hand semicircles of radius R = 0.6 m, 0.533 m
+        # half-width. A box on the right lane of the top straight, 1 m past the end of the
+        # first semicircle, is passed on the left, w/2 + car width/2 + clearance = 0.2 +
+        # 0.09805 + 0.1 m from its centre line: on the inside of the semicircle the car
+        # rounds on its way there, of radius R - bound. Within bend_grip (0.6) of mu g (1.0)
+        # that is v = sqrt(0.6 g (R - bound)); the box's own span is straight, which capped
+        # the speed only at speed_cap (2.2 m/s), and the car ran wide into such boxes on
+        # red_star_open, 2022_summit_speedway and dubai_pro (3 crashes each).
+        radius, straight, half_width = 0.6, 6.0, 0.533
+        xs = np.arange(0.0, straight, 0.05)
+        arc = np.arange(0.0, math.pi, 0.01 / radius)
+        centre = np.concatenate([
+            np.stack([xs, np.full_like(xs, -radius)], axis=1),
+            np.stack([straight + radius * np.sin(arc), -radius * np.cos(arc)], axis=1),
+            np.stack([straight - xs, np.full_like(xs, radius)], axis=1),
+            np.stack([-radius * np.sin(arc), radius * np.cos(arc)], axis=1)])
+        track = Track(centre, half_width, half_width, name="stadium")
+        arc_end = straight + math.pi * radius
+        core = race_core(track, 1, race_type="object_avoidance",
+                         obstacle_positions=((float((arc_end + 1.0) / track.length), -1),))
+        s_box, d_box = core.obstacle_s[0, 0], core.obstacle_d[0, 0]
+        assert abs(s_box - arc_end - 1.0) < 0.01 and -0.3 < d_box < -0.2
+        bound = d_box + 0.2 + 0.09805 + 0.1
+        want = np.array([bound])
+        for before, expected_speed in ((1.6, math.sqrt(0.6 * 9.81 * (radius - bound))),
+                                       (5.0, 3.5)):
+            # 1.6 m before the box: in the semicircle, the target in the approach ramp.
+            # 5 m before: nothing changes.
+            core.s[0, 0] = s_box - before
+            core.d[0, 0] = bound  # already on its side: no move-across limit
+            out, speed = avoid_obstacles(core, 0, core.s[:, 0] + 0.6, want, np.array([3.5]))
+            assert out[0] == pytest.approx(bound, abs=1e-9)
+            assert speed[0] == pytest.approx(expected_speed, rel=2e-3)
+
     def test_a_box_on_a_bend_sticks_out_on_the_outside_by_hand(self) -> None:
         # A left-hander of radius 0.5 m (k = 2): a 0.5 m box centred on the centre line has
         # its ends sqrt(0.5^2 + 0.25^2) - 0.5 = 0.0590 m out, on the right. On the left lane
