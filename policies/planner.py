@@ -94,6 +94,13 @@ LANE_GRIP = 0.9
 """Share of the driver's grip used on lanes other than the racing line."""
 APEX_CURVATURE = 0.5
 """Least racing-line curvature of a corner's apex [1/m] (radius 2 m)."""
+ROOM = 0.15
+"""Arc gap beyond the two cars' overlap (a car length, centre to centre) within which another
+car counts as leaving this one room: its drift towards it is not extrapolated [m]."""
+ROOM_AFTER = 2.0
+"""Race time before which no car is expected to leave room [s]: off the grid, side by side,
+every car heads for the racing line (four planners made twice the contacts of the first
+4 s with room expected from the start: 33 against 17 on the tuning tracks)."""
 
 _CACHE: weakref.WeakKeyDictionary[Track, dict[tuple[float, ...], Lanes]] = (
     weakref.WeakKeyDictionary())
@@ -411,6 +418,14 @@ class Planner:
         valid[:, car] = False
         speed = np.where(core.racing, core.speed, 0.0)
         dd = -core.velocity[..., 0] * np.sin(psi) + core.velocity[..., 1] * np.cos(psi)
+        # A car alongside leaves this one room, as the scripted drivers do (they keep a car
+        # width and 0.15 m from a car within a car length and 0.15 m of them, ahead or
+        # behind) and as racing's rules ask once two cars overlap: its drift towards this
+        # one is not extrapolated. Extrapolated, a car ahead turning in to its apex closed
+        # every pass on the inside that had drawn level.
+        beside = (np.abs(gap) < 2.0 * car_len + ROOM) & (core.time[:, None] >= ROOM_AFTER)
+        toward = (core.d - core.d[:, car : car + 1]) * dd < 0.0
+        dd = np.where(beside & toward, 0.0, dd)
         lo = hi = core.d
         half_len = np.full(gap.shape, car_len)
         half_wid = np.full(gap.shape, car_wid)

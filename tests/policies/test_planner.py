@@ -424,6 +424,33 @@ class TestPassing:
         assert np.all(core.overtakes[:, 0] >= 1)
 
 
+class TestRoom:
+    """A car alongside is expected to leave room (``ROOM``), a car further ahead is not, nor
+    any car in the first ``ROOM_AFTER`` seconds of a race."""
+
+    def test_drift_towards_it_is_not_extrapolated_only_alongside(self) -> None:
+        # On grand_loop's longest straight, car 1 at d = -0.3 m and car 0 at d = +0.2 m, car 1
+        # 0.4 m ahead (overlapping: under a car length, 0.32 m, plus ROOM, 0.15 m) or 1.0 m
+        # ahead, moving sideways at 0.5 m/s towards car 0 or away from it, 3 s into the race
+        # or (the last copy) at its start. The lateral speed the planner extrapolates (object
+        # slot 1's) is kept but for the car alongside moving towards it after the start: 0.
+        track = load_track("grand_loop")
+        start, _ = longest_straight(track)
+        core = two_car_core(track, 4, start + 2.0)
+        driver = Planner()
+        driver.reset(core)
+        core.s[:, 1] = core.s[:, 0] + np.array([0.4, 1.0, 0.4, 0.4])
+        core.d[:, 0], core.d[:, 1] = 0.2, -0.3
+        core.time[:] = [3.0, 3.0, 3.0, 0.0]
+        psi = track.heading_at(core.s)
+        lateral = np.array([[0.0, 0.5], [0.0, 0.5], [0.0, -0.5], [0.0, 0.5]])
+        core.velocity[..., 0] = 3.0 * np.cos(psi) - lateral * np.sin(psi)
+        core.velocity[..., 1] = 3.0 * np.sin(psi) + lateral * np.cos(psi)
+        gap, *_, drift, _, _, _ = driver._objects(core, 0, psi)
+        np.testing.assert_allclose(gap[:, 1], [0.4, 1.0, 0.4, 0.4], atol=1e-9)
+        np.testing.assert_allclose(drift[:, 1], [0.0, 0.5, -0.5, 0.5], atol=1e-9)
+
+
 class TestBraking:
     """It does not hit a car that brakes hard ahead."""
 
