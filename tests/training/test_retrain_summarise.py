@@ -1,0 +1,83 @@
+"""Issue 36's bars as `experiments/routes/retrain/summarise.py` reads them: which lap each route
+is held to (steps 1-2's ppo_generalist, racing_line: the one given or the one each run recorded),
+on hand-made JSON files of one route."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+SCRIPT = Path(__file__).resolve().parents[2] / "experiments" / "routes" / "retrain" / "summarise.py"
+
+
+@pytest.fixture()
+def summarise(monkeypatch):
+    spec = importlib.util.spec_from_file_location("retrain_summarise", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    # Steps 1-2's ppo_generalist: 10.0 s on the one route.
+    monkeypatch.setattr(module, "SHIPPED_PPO", run_json("ppo_generalist.pt", 10.0, None))
+    return module
+
+
+def run_json(policy: str, lap: float | None, baseline: float | None, laps: float = 1.0) -> dict:
+    """An `evaluate --json` time trial over one route, ``baseline`` the racing_line it recorded."""
+    pct = 100 * (lap / baseline - 1) if lap and baseline else None  # as evaluate writes it
+    return {"policy": policy, "race_type": "time_trial",
+            "summary": {"mean_vs_baseline_pct": pct},
+            "routes": [{"route": "loop", "laps": laps, "mean_lap_s": lap,
+                        "baseline_mean_lap_s": baseline}]}
+
+
+def write(folder: Path, name: str, data: dict) -> None:
+    (folder / f"{name}.json").write_text(json.dumps(data))
+
+
+def test_ppo_bar_is_the_faster_of_the_policy_before_and_racing_line(summarise):
+    route = {"route": "loop"}
+    line = {"loop": 9.0}
+    assert summarise.pace_bar(route, summarise.SHIPPED_PPO, True, line) == (9.0, "racing_line")
+    assert summarise.pace_bar(route, summarise.SHIPPED_PPO, True, {"loop": 11.0}) == (
+        10.0, "policy before")
+    assert summarise.pace_bar(route, summarise.SHIPPED_PPO, False, line) == (10.0, "policy before")
+    # The policy before never lapped the route: racing_line alone sets the bar.
+    never = run_json("old", None, None)
+    assert summarise.pace_bar(route, never, True, line) == (9.0, "racing_line")
+
+
+def test_camera_bar_leaves_racing_line_out_even_against_the_policy_before(summarise, tmp_path):
+    # 10.5 s is within 10 % of the policy before's 10.0 s, not of racing_line's 9.0 s (9.9 s):
+    # the camera bar is ppo_generalist's laps only. The old code put racing_line in whenever
+    # the reference was steps 1-2's file (summarise.py run without PPO_SEED).
+    write(tmp_path, "camera_s0", run_json("camera.pt", 10.5, 9.0))
+    row = summarise.time_trial("camera_s0", summarise.SHIPPED_PPO, 0.10, tmp_path)
+    assert row.split(" | ")[3] == "1 of 1"
+
+
+def test_today_racing_line_replaces_the_one_each_run_recorded(summarise, tmp_path, monkeypatch):
+    # The run recorded racing_line at 9.0 s; today's laps 12.0 s. Bar: min(10.0, 12.0) = 10.0,
+    # and 10.4 <= 1.05 * 10.0; against the recorded line the bar was 9.0 (10.4 > 9.45, +15.6 %).
+    write(tmp_path, "ppo_s0", run_json("ppo.pt", 10.4, 9.0))
+    monkeypatch.setattr(summarise, "RACING_LINE", run_json("racing_line", 12.0, 12.0))
+    cells = summarise.time_trial("ppo_s0", summarise.SHIPPED_PPO, 0.05, tmp_path,
+                                 with_racing_line=True).split(" | ")
+    assert cells[3:6] == ["1 of 1", "-", f"{100 * (10.4 / 12.0 - 1):+.1f} % |"]
+    monkeypatch.setattr(summarise, "RACING_LINE", None)  # --stored-baseline
+    cells = summarise.time_trial("ppo_s0", summarise.SHIPPED_PPO, 0.05, tmp_path,
+                                 with_racing_line=True).split(" | ")
+    assert cells[3:6] == ["0 of 1", "loop +15.6 %", "+15.6 % |"]
+
+
+def test_a_racing_line_file_of_another_policy_is_refused(tmp_path):
+    path = tmp_path / "not_racing_line.json"
+    path.write_text(json.dumps(run_json("runs/ppo/policy.pt", 10.0, 9.0)))
+    result = subprocess.run([sys.executable, str(SCRIPT), "--racing-line", str(path)],
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode != 0
+    assert "expected racing_line's time trial" in result.stderr
+    assert "runs/ppo/policy.pt" in result.stderr
