@@ -425,30 +425,53 @@ class TestPassing:
 
 
 class TestRoom:
-    """A car alongside is expected to leave room (``ROOM``), a car further ahead is not, nor
-    any car in the first ``ROOM_AFTER`` seconds of a race."""
+    """Room for a car alongside: expected of it (``ROOM``) and left to it (``_keep_room``)."""
 
     def test_drift_towards_it_is_not_extrapolated_only_alongside(self) -> None:
         # On grand_loop's longest straight, car 1 at d = -0.3 m and car 0 at d = +0.2 m, car 1
-        # 0.4 m ahead (overlapping: under a car length, 0.32 m, plus ROOM, 0.15 m) or 1.0 m
-        # ahead, moving sideways at 0.5 m/s towards car 0 or away from it, 3 s into the race
-        # or (the last copy) at its start. The lateral speed the planner extrapolates (object
-        # slot 1's) is kept but for the car alongside moving towards it after the start: 0.
+        # 0.4 m ahead (overlapping: under a car length, 0.32 m, plus ROOM) or 1.0 m ahead,
+        # moving sideways at 0.5 m/s towards car 0 or away from it. The lateral speed the
+        # planner extrapolates (object slot 1's) is kept but for the car alongside moving
+        # towards it: 0.
         track = load_track("grand_loop")
         start, _ = longest_straight(track)
-        core = two_car_core(track, 4, start + 2.0)
+        core = two_car_core(track, 3, start + 2.0)
         driver = Planner()
         driver.reset(core)
-        core.s[:, 1] = core.s[:, 0] + np.array([0.4, 1.0, 0.4, 0.4])
+        core.s[:, 1] = core.s[:, 0] + np.array([0.4, 1.0, 0.4])
         core.d[:, 0], core.d[:, 1] = 0.2, -0.3
-        core.time[:] = [3.0, 3.0, 3.0, 0.0]
         psi = track.heading_at(core.s)
-        lateral = np.array([[0.0, 0.5], [0.0, 0.5], [0.0, -0.5], [0.0, 0.5]])
+        lateral = np.array([[0.0, 0.5], [0.0, 0.5], [0.0, -0.5]])
         core.velocity[..., 0] = 3.0 * np.cos(psi) - lateral * np.sin(psi)
         core.velocity[..., 1] = 3.0 * np.sin(psi) + lateral * np.cos(psi)
         gap, *_, drift, _, _, _ = driver._objects(core, 0, psi)
-        np.testing.assert_allclose(gap[:, 1], [0.4, 1.0, 0.4, 0.4], atol=1e-9)
-        np.testing.assert_allclose(drift[:, 1], [0.0, 0.5, -0.5, 0.5], atol=1e-9)
+        np.testing.assert_allclose(gap[:, 1], [0.4, 1.0, 0.4], atol=1e-9)
+        np.testing.assert_allclose(drift[:, 1], [0.0, 0.5, -0.5], atol=1e-9)
+
+    def test_a_car_alongside_is_left_room(self) -> None:
+        # grand_loop's longest straight is 1 m wide: the path is kept within +-(0.5 - 0.12).
+        # Car 1 at d = -0.1 m beside car 0 (d = +0.1 m): its path's offsets are kept at least
+        # a car width and 0.15 m (0.1961 + 0.15) to the left of -0.1: 0.2461 m. Copy 1: car 1
+        # 1 m ahead, not alongside: the path is left alone. Copy 2: car 1 at +0.2 m, car 0 on
+        # its left at +0.25 m: the bound, 0.5461 m, lies beyond the border less the margin,
+        # 0.38 m, and is held there.
+        track = load_track("grand_loop")
+        start, _ = longest_straight(track)
+        core = two_car_core(track, 3, start + 2.0)
+        driver = Planner()
+        driver.reset(core)
+        core.s[:, 1] = core.s[:, 0] + np.array([0.1, 1.0, 0.1])
+        core.d[:, 0] = [0.1, 0.1, 0.25]
+        core.d[:, 1] = [-0.1, -0.1, 0.2]
+        path = np.zeros((3, 3, 3))
+        path[..., 0] = [0.0, 0.1, 0.3]
+        driver._keep_room(core, 0, path)
+        left = track.half_widths_at(core.s[:, 0])[0]
+        np.testing.assert_allclose(left, 0.5, atol=1e-9)
+        bound = -0.1 + core.config.car.width + 0.15
+        np.testing.assert_allclose(path[0, :, 0], [bound, bound, 0.3], atol=1e-9)
+        np.testing.assert_allclose(path[1, :, 0], [0.0, 0.1, 0.3], atol=1e-9)
+        np.testing.assert_allclose(path[2, :, 0], [0.38, 0.38, 0.38], atol=1e-9)
 
 
 class TestBraking:
