@@ -427,18 +427,25 @@ class TestPassing:
 class TestRoom:
     """Room for a car alongside: expected of it (``ROOM``) and left to it (``_keep_room``)."""
 
+    @staticmethod
+    def _pair(ahead: list[float]) -> tuple[Track, RaceCore, Planner]:
+        """grand_loop, a reset planner and a 2-car core on its longest straight, car 1
+        ``ahead[e]`` metres of track ahead of car 0 in copy e."""
+        track = load_track("grand_loop")
+        start, _ = longest_straight(track)
+        core = two_car_core(track, len(ahead), start + 2.0)
+        driver = Planner()
+        driver.reset(core)
+        core.s[:, 1] = core.s[:, 0] + np.array(ahead)
+        return track, core, driver
+
     def test_drift_towards_it_is_not_extrapolated_only_alongside(self) -> None:
         # On grand_loop's longest straight, car 1 at d = -0.3 m and car 0 at d = +0.2 m, car 1
         # 0.4 m ahead (overlapping: under a car length, 0.32 m, plus ROOM) or 1.0 m ahead,
         # moving sideways at 0.5 m/s towards car 0 or away from it. The lateral speed the
         # planner extrapolates (object slot 1's) is kept but for the car alongside moving
         # towards it: 0.
-        track = load_track("grand_loop")
-        start, _ = longest_straight(track)
-        core = two_car_core(track, 3, start + 2.0)
-        driver = Planner()
-        driver.reset(core)
-        core.s[:, 1] = core.s[:, 0] + np.array([0.4, 1.0, 0.4])
+        track, core, driver = self._pair([0.4, 1.0, 0.4])
         core.d[:, 0], core.d[:, 1] = 0.2, -0.3
         psi = track.heading_at(core.s)
         lateral = np.array([[0.0, 0.5], [0.0, 0.5], [0.0, -0.5]])
@@ -455,12 +462,7 @@ class TestRoom:
         # 1 m ahead, not alongside: the path is left alone. Copy 2: car 1 at +0.2 m, car 0 on
         # its left at +0.25 m: the bound, 0.5461 m, lies beyond the border less the margin,
         # 0.38 m, and is held there.
-        track = load_track("grand_loop")
-        start, _ = longest_straight(track)
-        core = two_car_core(track, 3, start + 2.0)
-        driver = Planner()
-        driver.reset(core)
-        core.s[:, 1] = core.s[:, 0] + np.array([0.1, 1.0, 0.1])
+        track, core, driver = self._pair([0.1, 1.0, 0.1])
         core.d[:, 0] = [0.1, 0.1, 0.25]
         core.d[:, 1] = [-0.1, -0.1, 0.2]
         path = np.zeros((3, 3, 3))
