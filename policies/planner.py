@@ -12,7 +12,9 @@ graph-based planner (Stahl et al., ITSC 2019), batched over env copies:
   being tracked, blends onto each lane over a short and a long transition (hold the line, pass
   left, pass right, come back) and, beside a car, a hold of its own offset, each with its
   speed profile over a horizon of a few metres. Every other car and bot is predicted along
-  the track (its acceleration and pace, its lateral speed); a candidate that leaves the track
+  the track (its acceleration and pace, its lateral speed, but not towards the car while the
+  two overlap: a car alongside leaves room, and the planner leaves one room in turn,
+  ``ROOM``, ``_keep_room``); a candidate that leaves the track
   or comes within a car length and width plus margins of a predicted car is not free. The
   free one that reaches the horizon soonest wins; a blocked one is tried again held to the
   blocking car's speed where it overlaps it (across behind it, then past); with none free it
