@@ -350,7 +350,7 @@ class Planner:
         # Round a box the car leaves its path on purpose: keep the path to come back to.
         self._reanchor = np.where(np.abs(d_look - planned) > 0.01, BOX_REANCHOR,
                                   kernel.REANCHOR)
-        self._keep_room(core, car, path)
+        self._keep_room(core, car, objects[0][:, : core.num_cars], path)
         steer, tracked_cmd = tracking.track_path(core, car, kc, err, path, v_cmd)
         # Round a box the car steers at a point off its path (pure pursuit, as racing_line):
         # the path's curvature says nothing of that detour. The pursuit arc's curvature
@@ -364,15 +364,13 @@ class Planner:
         return to_action(core, np.where(boxed, pursuit, steer),
                          np.where(boxed, v_cmd, tracked_cmd))
 
-    def _keep_room(self, core: RaceCore, car: int, path: FloatArray) -> None:
+    def _keep_room(self, core: RaceCore, car: int, gap: FloatArray, path: FloatArray) -> None:
         """Leave a car alongside room, as the scripted drivers do and as it expects of others
         (``ROOM``): the offsets of the path it tracks (``path[..., 0]``, (E, P) [m]) are kept
         a car width and ``ROOM_KEPT`` from the nearest car within a car length and
         ``ROOM_KEPT`` along the track, on the side the car is on, within the track less
-        ``margin``."""
-        length = core.track.length
-        gap = core.s - core.s[:, car : car + 1]
-        gap -= length * np.floor(gap / length + 0.5)
+        ``margin``. ``gap`` is every car's wrapped arc gap ahead of this one, (E, N) [m]
+        (``_objects``' first N columns)."""
         params = core.config.car
         alongside = (core.racing & (np.abs(gap) < params.length + ROOM_KEPT)
                      & (np.arange(core.num_cars) != car)[None, :])

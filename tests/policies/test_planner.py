@@ -467,7 +467,7 @@ class TestRoom:
         core.d[:, 1] = [-0.1, -0.1, 0.2]
         path = np.zeros((3, 3, 3))
         path[..., 0] = [0.0, 0.1, 0.3]
-        driver._keep_room(core, 0, path)
+        driver._keep_room(core, 0, core.s - core.s[:, :1], path)
         left = track.half_widths_at(core.s[:, 0])[0]
         np.testing.assert_allclose(left, 0.5, atol=1e-9)
         bound = -0.1 + core.config.car.width + 0.15
