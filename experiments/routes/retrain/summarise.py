@@ -3,6 +3,10 @@
     python experiments/routes/retrain/summarise.py                      # today's racing_line
     python experiments/routes/retrain/summarise.py --stored-baseline    # as each run measured it
     python experiments/routes/retrain/summarise.py --pace-table ppo_s0  # its pace bar per route
+    python experiments/routes/retrain/summarise.py --pace-table ppo_more/ppo5_s0  # a folder's run
+
+Every subfolder's time-trial JSONs get a row too, except `*_shipped.json` (a run on the
+shipped tracks, `--track all`, as `ppo_more/` keeps beside its routes).
 
 racing_line's laps are its own run alone on the routes (`racing_line.json` beside this file,
 `h2h-racing evaluate --policy racing_line --track ../shared/data/deepracer_tracks --episodes
@@ -233,6 +237,8 @@ def main() -> None:
     for folder in sorted(p for p in HERE.iterdir() if p.is_dir()):
         for path in sorted(folder.glob("*.json")):
             if path.stem.startswith("obstacle"):  # its rows are the second table's
+                continue
+            if path.stem.endswith("_shipped"):  # the shipped tracks (ppo_more/), not the routes
                 continue
             camera = path.stem.startswith("camera")
             row = time_trial(path.stem, ppo_ref if camera else SHIPPED_PPO,
