@@ -81,3 +81,21 @@ def test_a_racing_line_file_of_another_policy_is_refused(tmp_path):
     assert result.returncode != 0
     assert "expected racing_line's time trial" in result.stderr
     assert "runs/ppo/policy.pt" in result.stderr
+
+
+def test_a_folders_shipped_tracks_json_gets_no_routes_row(summarise, tmp_path, monkeypatch,
+                                                          capsys):
+    # ppo_more/ keeps each seed's run on the shipped tracks (`--track all`) beside its routes
+    # JSON: only the routes one is a row of the routes table (the old code printed both).
+    line = run_json("racing_line", 10.0, 10.0)
+    write(tmp_path, "racing_line", line)
+    write(tmp_path, "racing_line_shipped", line)
+    (tmp_path / "ppo_more").mkdir()
+    write(tmp_path / "ppo_more", "ppo5_s0", run_json("ppo5.pt", 10.2, 10.0))
+    write(tmp_path / "ppo_more", "ppo5_s0_shipped", run_json("ppo5.pt", 10.2, 10.0))
+    monkeypatch.setattr(summarise, "HERE", tmp_path)
+    monkeypatch.setattr(sys, "argv", ["summarise.py"])
+    summarise.main()
+    out = capsys.readouterr().out
+    assert "| ppo_more/ppo5_s0 | 1 of 1 | - | 1 of 1 | - | +2.0 % |" in out
+    assert "ppo5_s0_shipped" not in out
