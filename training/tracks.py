@@ -93,10 +93,17 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
     return _finished(rng, _retried(ordinary), reverse_share, waypoint_gap)
 
 
+DRAW_CALLS = 20
+"""Most calls of ``_retried``'s ``draw`` before its failure is raised. Five were too few: a
+widened config (``ppo_generalist/routes``: up to 2 m wide on 15-45 m loops) failed five in a
+row after 871 iterations of a run (seed 2). A draw that succeeded within five calls is the same
+track as before, to the bit: only what used to raise goes on."""
+
+
 def _retried(draw: Callable[[], Any]) -> Any:
-    """``draw()``, called again while it finds no valid loop (``RuntimeError``): five calls at
-    most, the fifth one's failure raised."""
-    for _ in range(4):
+    """``draw()``, called again while it finds no valid loop (``RuntimeError``): ``DRAW_CALLS``
+    calls at most, the last one's failure raised."""
+    for _ in range(DRAW_CALLS - 1):
         try:
             return draw()
         except RuntimeError:
