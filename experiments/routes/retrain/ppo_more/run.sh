@@ -23,7 +23,9 @@ for seed in ${SEEDS:-0 1 2}; do
   step4=runs/routes_ppo_s$seed
   run=runs/routes_ppo5_s$seed
   if [ ! -f $run/policy.pt ]; then
-    if [ ! -f $run/model_599.pt ]; then  # step 4's last checkpoint and curves, to resume from
+    # Step 4's last checkpoint and curves, to resume from; a run stopped part-way (a folder with
+    # checkpoints already: rsl-rl does not keep model_599.pt there) resumes from its latest.
+    if ! ls $run/model_*.pt > /dev/null 2>&1; then
       mkdir -p $run && cp $step4/model_599.pt $step4/curves.csv $run/
     fi
     h2h-racing train --config ppo_generalist/routes --seed $seed --iterations 900 --resume \
