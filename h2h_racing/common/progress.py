@@ -4,7 +4,11 @@
 A line on stderr in one style: ``label  42% |############......| what  0:12 ETA 0:17``. On a
 terminal it is redrawn in place (carriage returns, at most ten times a second); anywhere else
 (a log file, a pipe) it is a plain line per tenth of the job and never a carriage return, so
-logs stay readable. ``mode="off"`` (the commands' ``--no-progress``) shows nothing.
+logs stay readable. ``mode="off"`` shows nothing.
+
+The commands are quiet when piped: without ``--progress``/``--no-progress`` they show the
+line only when stderr is a terminal (``progress_mode``); ``--progress`` asks for the plain
+lines in a log or a pipe too, ``--no-progress`` for none.
 """
 
 from __future__ import annotations
@@ -137,18 +141,29 @@ class Progress:
             self._open = False
 
 
-PROGRESS_HELP = ("show progress on stderr: a line redrawn on a terminal, a plain line per tenth "
-                 "of the job in a log file; --no-progress: none")
+PROGRESS_HELP = ("show progress on stderr: auto: a line redrawn when stderr is a terminal, "
+                 "nothing when it is a pipe or a file (quiet when piped); --progress: also a "
+                 "plain line per tenth of the job in a log or a pipe; --no-progress: none")
 
 
 def add_progress_flag(parser: Any) -> None:
-    """Add ``--progress/--no-progress`` (``PROGRESS_HELP``) to an argparse parser."""
+    """Add ``--progress/--no-progress`` (``PROGRESS_HELP``; default ``"auto"``, see
+    ``progress_mode``) to an argparse parser."""
     import argparse
 
-    parser.add_argument("--progress", action=argparse.BooleanOptionalAction, default=True,
+    parser.add_argument("--progress", action=argparse.BooleanOptionalAction, default="auto",
                         help=PROGRESS_HELP)
 
 
-def progress_mode(args: Any) -> Mode:
-    """The ``Progress`` mode of a command's ``--progress/--no-progress``."""
-    return "off" if getattr(args, "progress", True) is False else "auto"
+def progress_mode(args: Any, stream: TextIO | None = None) -> Mode:
+    """The ``Progress`` mode of a command's ``--progress/--no-progress``: ``"off"`` for
+    ``--no-progress``, ``"auto"`` for ``--progress``, and without either ``"auto"`` only when
+    ``stream`` (stderr by default, where the line goes) is a terminal: a command whose output
+    is piped or sent to a file prints no progress lines there unless asked."""
+    flag = getattr(args, "progress", "auto")
+    if flag is False:
+        return "off"
+    if flag is True:
+        return "auto"
+    stream = sys.stderr if stream is None else stream
+    return "auto" if bool(getattr(stream, "isatty", lambda: False)()) else "off"

@@ -225,8 +225,10 @@ def test_ctrl_c_stops_a_tournament_with_one_line_and_its_command_plays_the_rest(
             "--laps", "3", "--league", "t.sqlite", "--workers", "1"]  # 2 races by default
     err = tmp_path / "err.txt"
     with open(err, "w") as stderr:
-        process = subprocess.Popen(CLI + argv, stdout=subprocess.DEVNULL, stderr=stderr,
-                                   env=ENV, cwd=tmp_path, start_new_session=True)
+        # --progress: the progress lines in the file (quiet without it off a terminal) tell
+        # when the first races are stored; the resume command leaves the flag out.
+        process = subprocess.Popen(CLI + argv + ["--progress"], stdout=subprocess.DEVNULL,
+                                   stderr=stderr, env=ENV, cwd=tmp_path, start_new_session=True)
     try:
         # 3 pairs x 7 tracks = 21 jobs of 4 races: stop after the first few.
         _wait_for(lambda: re.search(r"\b[1-9]\d*/84 races", err.read_text()),

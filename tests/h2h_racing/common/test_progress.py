@@ -3,12 +3,17 @@ when switched off."""
 
 from __future__ import annotations
 
+import argparse
 import io
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
 from h2h_racing.cli.command import main
-from h2h_racing.common.progress import Progress, clock
+from h2h_racing.common.progress import Progress, add_progress_flag, clock, progress_mode
 
 
 class Terminal(io.StringIO):
@@ -79,8 +84,10 @@ def test_evaluate_against_shows_races_done(terminal: bool, monkeypatch: pytest.M
     # It used to be silent for more than a minute.
     stream = Terminal() if terminal else io.StringIO()
     monkeypatch.setattr("sys.stderr", stream)
+    # Off a terminal the lines are asked for (--progress); without it the command is quiet.
     assert main(["evaluate", "--policy", "racing_line", "--against", "pure_pursuit",
-                 "--track", "oval", "--races", "2", "--laps", "1"]) == 0
+                 "--track", "oval", "--races", "2", "--laps", "1",
+                 *([] if terminal else ["--progress"])]) == 0
     text = stream.getvalue()
     assert ("\r" in text) == terminal
     assert "races vs pure_pursuit on oval (1/1)" in text
@@ -110,3 +117,50 @@ def test_a_log_file_gets_the_last_state_once() -> None:
     progress.close()
     assert [line.split("| ")[1].split()[0] for line in stream.getvalue().splitlines()] == [
         "a", "b", "c"]
+
+
+# ------------------------------------------------------------------ quiet when piped
+
+REPO = Path(__file__).resolve().parents[3]
+CLI = [sys.executable, "-c",
+       "import sys; from h2h_racing.cli.command import main; sys.exit(main(sys.argv[1:]))"]
+ENV = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]),
+           GIT_PYTHON_REFRESH="quiet")
+BAR = "% |"
+"""What every progress line has (``label  42% |###...``) and no table row does."""
+
+
+def _piped(argv: list[str], cwd: Path) -> subprocess.CompletedProcess[str]:
+    """The command with stdout and stderr both pipes (``h2h-racing ... 2>&1 | cat``)."""
+    return subprocess.run(CLI + argv, capture_output=True, text=True, timeout=120, env=ENV,
+                          cwd=cwd)
+
+
+def test_the_mode_follows_the_flag_and_else_whether_stderr_is_a_terminal() -> None:
+    parser = argparse.ArgumentParser()
+    add_progress_flag(parser)
+    default, on, off = (parser.parse_args(a) for a in ([], ["--progress"], ["--no-progress"]))
+    assert default.progress == "auto"
+    assert progress_mode(default, stream=Terminal()) == "auto"
+    assert progress_mode(default, stream=io.StringIO()) == "off"  # a pipe or a file: quiet
+    assert progress_mode(on, stream=io.StringIO()) == "auto"  # asked: lines in the log
+    assert progress_mode(off, stream=Terminal()) == "off"
+
+
+def test_evaluate_over_two_tracks_prints_no_progress_lines_when_piped(tmp_path: Path) -> None:
+    # It printed "evaluate  50% |###...| 1/2 routes" and "evaluate 100% |...| 2/2 routes" on
+    # stderr (a plain line per tenth off a terminal), where a single track printed none.
+    run = _piped(["evaluate", "--policy", "racing_line", "--track", "oval,kidney",
+                  "--episodes", "1", "--jobs", "1"], tmp_path)
+    assert run.returncode == 0, run.stderr
+    assert "oval " in run.stdout and "kidney " in run.stdout  # the table is there
+    assert BAR not in run.stdout and BAR not in run.stderr, run.stderr
+
+
+def test_a_tournament_prints_no_progress_lines_when_piped(tmp_path: Path) -> None:
+    # It printed "tournament   0% |...| 0/2 races, starting" and two more lines on stderr.
+    run = _piped(["tournament", "--players", "racing_line,pure_pursuit", "--tracks", "oval",
+                  "--races", "1", "--laps", "1", "--league", "t.sqlite"], tmp_path)
+    assert run.returncode == 0, run.stderr
+    assert "racing_line" in run.stdout
+    assert BAR not in run.stdout and BAR not in run.stderr, run.stderr
