@@ -1,7 +1,8 @@
 """A training run's curves as a CSV file and a PNG plot, beside its tensorboard log.
 
-``curves.csv`` gets one row per PPO (or imitation) iteration, written as the run goes (a
-killed run keeps every row but the last):
+``curves.csv`` gets one row per PPO (or imitation) iteration, written as the iteration ends
+(or with its evaluation, when one is due after it), so that a run that stops or is killed
+keeps the row of every iteration its checkpoints hold:
 
 - ``iteration``: iterations completed (1 for the first); ``steps``: samples collected so far
   (env copies x learner cars x steps per iteration, summed); ``seconds``: wall time of the run
@@ -124,15 +125,22 @@ def read_curves(path: str | Path) -> tuple[list[str], list[dict[str, str]]]:
 
 
 def seconds_at(path: str | Path, iteration: int) -> float:
-    """The run's ``seconds`` at ``iteration`` in a ``curves.csv`` (0 without that row or
-    file): where a resumed run's clock goes on from."""
+    """The run's ``seconds`` at ``iteration`` in a ``curves.csv``: where a resumed run's clock
+    goes on from. Without that row (a run killed before writing it, or written before every
+    row went to disk at once) the latest row before it gives the time, short of at most that
+    iteration's; 0 without an earlier row or the file."""
     if not Path(path).is_file():
         return 0.0
     _, rows = read_curves(path)
+    best = (-1, 0.0)
     for row in rows:
-        if row.get("iteration") == str(iteration) and row.get("seconds"):
-            return float(row["seconds"])
-    return 0.0
+        try:
+            at, seconds = int(row.get("iteration") or ""), float(row.get("seconds") or "")
+        except ValueError:  # a row cut short by a killed run
+            continue
+        if best[0] < at <= iteration:
+            best = (at, seconds)
+    return best[1]
 
 
 def plot_curves(csv_path: str | Path, png_path: str | Path) -> str:

@@ -125,60 +125,68 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
     curves = None if out is None else CurveWriter(out / "curves.csv", terms,
                                                   keep=done if checkpoint else None)
     stop = stop if stop is not None else StopRequest()
-    listeners: list[Any] = [display]
-    if curves is not None:
-        listeners.append(lambda figures: curves.add_iteration(figures.row()))
-    hook = IterationHook(runner, iterations, terms, config.reward_function is not None, budget,
-                         listeners, stop=lambda: stop.requested, planned=display.planned)
     procedural = config.track == PROCEDURAL
     eval_every = config.eval_every if out is not None else 0
+    listeners: list[Any] = [display]
+    if curves is not None:
+        listeners.append(lambda figures: _add_row(curves, figures, eval_every))
+    hook = IterationHook(runner, iterations, terms, config.reward_function is not None, budget,
+                         listeners, stop=lambda: stop.requested, planned=display.planned)
     tracks = _track_draws(config, env, done) if procedural else None
     save_interval = runner.cfg["save_interval"]
     # The latest checkpoint not on the save interval, deleted when a newer one is written.
     extra = checkpoint if checkpoint is not None and (done - 1) % save_interval else None
     display.starting("collecting the first rollout (compiling kernels on a first run)")
     with stop.installed():
-        while done < iterations and hook.stopping is None and not stop.requested:
-            # Each learn() call stops where the track changes or an evaluation is due.
-            step = iterations - done
-            if procedural:
-                every = config.procedural.every
-                if done % every == 0:
-                    _set_tracks(config, env, tracks)
-                step = min(step, every - done % every)
-            if eval_every:
-                step = min(step, eval_every - done % eval_every)
-            stopped = False
-            try:
-                with quiet(verbose):
-                    runner.learn(step)
-            except StopTraining:
-                stopped = True
-            last = runner.current_learning_iteration  # index of the last iteration trained
-            if stopped and out is not None:  # learn() saves only when it runs to its end
-                runner.save(str(out / f"model_{last}.pt"))
-            # learn() saves a checkpoint when it ends: keep only the latest of those (and every
-            # save_interval one), or a run of short learn() calls fills the disk.
-            latest = out / f"model_{last}.pt" if out else None
-            if extra is not None and extra != latest:
-                extra.unlink(missing_ok=True)
-            extra = latest if last % save_interval else None
-            # rsl-rl's learn() re-runs the last iteration index on the next call (its G3
-            # gotcha): the runner's counter is the iterations done.
-            done = runner.current_learning_iteration = last + 1
-            # Each learn() also opens a new tensorboard event file (and never closes the last):
-            # keep the first writer for the whole run.
-            runner.logger.init_logging_writer = _keep_writer
-            if (eval_every and done % eval_every == 0 and hook.stopping is None
-                    and not stop.requested):
-                display.phase(f"evaluating iteration {done}: {config.eval_episodes} lap "
-                              f"attempts and a race")
-                figures = evaluate_during_training(runner, config, out, done,  # type: ignore
-                                                   before_print=display.clear)
-                if curves is not None:
-                    curves.add_evaluation(done, figures)
-                if budget.after_pause() and done < iterations:
-                    hook.stopping = "budget"
+        try:
+            while done < iterations and hook.stopping is None and not stop.requested:
+                # Each learn() call stops where the track changes or an evaluation is due.
+                step = iterations - done
+                if procedural:
+                    every = config.procedural.every
+                    if done % every == 0:
+                        _set_tracks(config, env, tracks)
+                    step = min(step, every - done % every)
+                if eval_every:
+                    step = min(step, eval_every - done % eval_every)
+                stopped = False
+                try:
+                    with quiet(verbose):
+                        runner.learn(step)
+                except StopTraining:
+                    stopped = True
+                last = runner.current_learning_iteration  # index of the last iteration trained
+                if stopped and out is not None:  # learn() saves only when it runs to its end
+                    runner.save(str(out / f"model_{last}.pt"))
+                # learn() saves a checkpoint when it ends: keep only the latest of those (and
+                # every save_interval one), or a run of short learn() calls fills the disk.
+                latest = out / f"model_{last}.pt" if out else None
+                if extra is not None and extra != latest:
+                    extra.unlink(missing_ok=True)
+                extra = latest if last % save_interval else None
+                # rsl-rl's learn() re-runs the last iteration index on the next call (its G3
+                # gotcha): the runner's counter is the iterations done.
+                done = runner.current_learning_iteration = last + 1
+                # Each learn() also opens a new tensorboard event file (and never closes the
+                # last): keep the first writer for the whole run.
+                runner.logger.init_logging_writer = _keep_writer
+                if (eval_every and done % eval_every == 0 and hook.stopping is None
+                        and not stop.requested):
+                    display.phase(f"evaluating iteration {done}: {config.eval_episodes} lap "
+                                  f"attempts and a race")
+                    figures = evaluate_during_training(runner, config, out, done,  # type: ignore
+                                                       before_print=display.clear)
+                    if curves is not None:
+                        curves.add_evaluation(done, figures)
+                    if budget.after_pause() and done < iterations:
+                        hook.stopping = "budget"
+        except BaseException:
+            # A run that fails part-way (drawing a track, in an evaluation) still writes
+            # the row of its last iteration, which its latest checkpoint may hold: resumed,
+            # the run goes on from that row's clock instead of restarting it at 0.
+            if curves is not None:
+                curves.flush()
+            raise
         # Still inside: a second Ctrl-C while saving stops at once (StopRequest).
         interrupted = stop.requested or hook.stopping == "interrupted"
         env.close()
@@ -202,6 +210,15 @@ def train(config: TrainConfig, iterations: int, out: str | Path | None = None,
         latest_checkpoint = None if out is None else out / f"model_{done - 1}.pt"
         raise TrainingInterrupted(done, latest_checkpoint, policy)
     return runner
+
+
+def _add_row(curves: CurveWriter, figures: Any, eval_every: int) -> None:
+    """Add an iteration's row to ``curves.csv``, written at once unless an evaluation is due
+    after it (which joins the row and writes it): so every checkpoint's iteration has its row on
+    disk, and a run killed after a checkpoint resumes with its curves and clock."""
+    curves.add_iteration(figures.row())
+    if not (eval_every and figures.done % eval_every == 0):
+        curves.flush()
 
 
 def reward_terms(config: TrainConfig) -> tuple[str, ...]:

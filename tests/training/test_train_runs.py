@@ -127,6 +127,59 @@ class TestResume:
         with pytest.raises(RunFolderError, match="already trained 2 of --iterations 2"):
             train(SMALL, iterations=2, out=tmp_path, resume=True)
 
+    def test_a_run_that_fails_part_way_resumes_with_continuous_curves(
+            self, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+            capsys: pytest.CaptureFixture[str]) -> None:
+        # As ppo_generalist/routes seed 2 (issue 36, step 5): learn() ended on iteration
+        # index 1 (its checkpoint model_1.pt), then drawing the next random track raised. The
+        # row of that iteration (curves' 2) waited in memory for the next one and was lost:
+        # the resumed run had no row 2 and its clock restarted from 0 (seconds_at found none).
+        from rsl_rl.algorithms import PPO
+
+        from h2h_racing.training import train as train_module
+        from h2h_racing.training.tracks import ProceduralTracks
+
+        updates = {"count": 0}
+        update = PPO.update
+
+        def counted(self: PPO) -> dict[str, float]:
+            updates["count"] += 1
+            return update(self)
+
+        # Every iteration takes 20 s on this clock, the runs' setup none.
+        monkeypatch.setattr(PPO, "update", counted)
+        monkeypatch.setattr(train_progress, "_now", lambda: 20.0 * updates["count"])
+        set_tracks = train_module._set_tracks
+        calls = {"count": 0}
+
+        def failing_second_draw(*args: object) -> None:
+            calls["count"] += 1
+            if calls["count"] == 2:
+                raise RuntimeError("random_track found no valid track in 100 tries")
+            set_tracks(*args)
+
+        monkeypatch.setattr(train_module, "_set_tracks", failing_second_draw)
+        config = dataclasses.replace(SMALL, track="procedural",
+                                     procedural=ProceduralTracks(every=2))
+        with pytest.raises(RuntimeError, match="no valid track"):
+            train(config, iterations=5, out=tmp_path)
+        assert sorted(p.name for p in tmp_path.glob("model_*.pt")) == ["model_0.pt",
+                                                                       "model_1.pt"]
+        # The checkpoint's iteration has its row on disk.
+        assert [r["iteration"] for r in rows(tmp_path)] == ["1", "2"]
+        capsys.readouterr()
+        train(config, iterations=5, out=tmp_path, resume=True)
+        assert "resuming at iteration 2 of 5 from " in capsys.readouterr().out
+        curves = rows(tmp_path)
+        assert [r["iteration"] for r in curves] == ["1", "2", "3", "4", "5"]
+        assert [int(r["steps"]) for r in curves] == [SAMPLES * k for k in range(1, 6)]
+        # The clock goes on from the checkpoint's row: 20 s an iteration, both runs.
+        assert [r["seconds"] for r in curves] == ["20", "40", "60", "80", "100"]
+        assert updates["count"] == 5  # exactly the iterations asked, none twice or left out
+        assert torch.load(tmp_path / "policy.pt", weights_only=True)["training"][
+            "iterations"] == 5
+        assert (tmp_path / "model_4.pt").is_file()
+
     def test_simtrace_logs_are_not_resumed(self, tmp_path: Path) -> None:
         # Their iteration files would restart at 0 over the first run's.
         config = dataclasses.replace(SMALL, simtrace_envs=1, simtrace_eval_trials=0)
@@ -181,6 +234,32 @@ class TestCurves:
         logged = tags(tmp_path)
         assert "reward/reward_function" in logged
         assert not {"reward/progress", "reward/crash", "reward/off_track"} & logged
+
+    def test_an_evaluation_joins_its_iterations_row(self, tmp_path: Path) -> None:
+        # Rows go to disk as their iteration ends, except one an evaluation is due after.
+        config = dataclasses.replace(SMALL, eval_every=2, eval_episodes=1,
+                                     eval_race_seconds=1.0)
+        train(config, iterations=3, out=tmp_path)
+        curves = rows(tmp_path)
+        assert [r["iteration"] for r in curves] == ["1", "2", "3"]
+        assert [bool(r["eval_lap_completion"]) for r in curves] == [False, True, False]
+        assert all(r["steps"] for r in curves)
+
+    def test_a_resumed_clock_goes_on_from_the_latest_row_at_or_before_the_checkpoint(
+            self, tmp_path: Path) -> None:
+        from h2h_racing.training.curves import seconds_at
+
+        # A folder written before every row went to disk at once: the checkpoint's row (3) is
+        # missing. It used to give 0 (the resumed clock restarted); row 2's time is the best
+        # known, one iteration short.
+        path = tmp_path / "curves.csv"
+        path.write_text("iteration,steps,seconds\n1,16,10.5\n2,32,21\n4,64,40\n5,80,\n")
+        assert seconds_at(path, 2) == 21.0
+        assert seconds_at(path, 3) == 21.0
+        assert seconds_at(path, 4) == 40.0
+        assert seconds_at(path, 5) == 40.0  # a row cut short (no seconds) is passed over
+        assert seconds_at(path, 0) == 0.0
+        assert seconds_at(tmp_path / "none.csv", 3) == 0.0
 
     def test_without_matplotlib_the_plot_is_skipped_in_one_line(
             self, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -271,7 +350,8 @@ def test_ctrl_c_stops_at_an_iteration_with_one_line_and_resumes(tmp_path: Path) 
     # The command it gives resumes (with a cap just above, so that it ends).
     words = command.split()[1:]
     words[words.index("--iterations") + 1] = str(done + 1)
-    resumed = subprocess.run([sys.executable, "-m", "h2h_racing.cli.command", *words, "--no-progress"],
+    resumed = subprocess.run([sys.executable, "-m", "h2h_racing.cli.command", *words,
+                              "--no-progress"],
                              cwd=tmp_path, capture_output=True, text=True, timeout=240,
                              env={**os.environ})
     assert resumed.returncode == 0, resumed.stderr
