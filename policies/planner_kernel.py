@@ -71,6 +71,7 @@ from h2h_racing.policies.planner_motion import (  # noqa: F401  (re-exported for
     _excess,
     _follow_speed,
     _profile,
+    _speed_ahead,
     _table,
     _travel,
     predict,
@@ -323,6 +324,7 @@ def _candidate(lane, trans, ref, ref_slope, s_start, v_start, step, samples, e, 
         # First try the same path held to that car's predicted speed only where it overlaps
         # it sideways: move across behind it, then go (a pass from right behind a car).
         limit = work[4]
+        front = params[P_HALF_LEN] + obj_half_len[e, hit] + params[P_LONG_MARGIN]
         for i in range(samples + 1):
             limit[i] = v_lim[i]
             moved = obj_dd[e, hit] * min(times[i], LATERAL_PREVIEW)
@@ -330,9 +332,8 @@ def _candidate(lane, trans, ref, ref_slope, s_start, v_start, step, samples, e, 
             hi = max(obj_hi[e, hit], obj_hi[e, hit] + moved)
             apart = max(lo - dpath[i], dpath[i] - hi, 0.0)
             if apart < params[P_HALF_WID] + obj_half_wid[e, hit] + params[P_LAT_MARGIN]:
-                ahead = (_travel(traj, e, hit, times[i] + 0.05)
-                         - _travel(traj, e, hit, times[i])) / 0.05
-                v_lim[i] = min(v_lim[i], ahead)
+                v_lim[i] = min(v_lim[i], _speed_ahead(traj, e, hit, obj_gap[e, hit],
+                                                      i * step + front))
         _profile(v_lim, vel, step, v_start, params[P_A_ACC], params[P_A_BRK], samples)
         t, again, beside = _run(dpath, vel, times, step, s_start, e, centre, inv_ds, length,
                                 obj_gap, obj_lo, obj_hi, traj, obj_dd, obj_half_len,
@@ -342,9 +343,8 @@ def _candidate(lane, trans, ref, ref_slope, s_start, v_start, step, samples, e, 
         else:
             # The same path behind the car it would hit, at that car's predicted speed.
             for i in range(samples + 1):
-                ahead = (_travel(traj, e, hit, times[i] + 0.05)
-                         - _travel(traj, e, hit, times[i])) / 0.05
-                v_lim[i] = min(limit[i], ahead)
+                v_lim[i] = min(limit[i], _speed_ahead(traj, e, hit, obj_gap[e, hit],
+                                                      i * step + front))
             _profile(v_lim, vel, step, v_start, params[P_A_ACC], params[P_A_BRK], samples)
             t, _, _ = _run(dpath, vel, times, step, s_start, e, centre, inv_ds, length,
                            obj_gap, obj_lo, obj_hi, traj, obj_dd, obj_half_len, obj_half_wid,

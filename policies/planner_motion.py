@@ -66,6 +66,28 @@ def _travel(traj, e, o, t):  # pragma: no cover
     return traj[e, o, k] + (u - k) * (traj[e, o, k + 1] - traj[e, o, k])
 
 
+@njit(cache=True, inline="always")
+def _speed_ahead(traj, e, o, gap, at):  # pragma: no cover
+    """Speed [m/s] object ``o`` of copy ``e`` is predicted to have when it reaches ``at``
+    metres of track ahead of the car (``gap``: how far ahead of the car it is now); 1e9 for
+    a point it has passed already.
+
+    A car that follows another at its speed *there*, rather than at its speed *then*, keeps
+    at least the gap it has: if the follower's speed at x is the leader's at x + front, both
+    take the same time from x to y and from x + front to y + front, so the follower reaches
+    each point no sooner than the leader reached the point ``front`` ahead of it, as long as
+    it starts behind that. Matched in time instead, a follower 3 m back brakes when the car
+    ahead does, 3 m before it needs to, and never closes in under braking."""
+    need = at - gap
+    if need <= 0.0:
+        return 1e9
+    last = traj.shape[2] - 1
+    for k in range(1, last + 1):
+        if traj[e, o, k] >= need:
+            return (traj[e, o, k] - traj[e, o, k - 1]) / PREDICT_DT
+    return (traj[e, o, last] - traj[e, o, last - 1]) / PREDICT_DT
+
+
 @njit(cache=True)
 def predict(obj_gap, obj_speed, obj_cap, obj_ratio, s0, line_v, inv_ds, length, obj_accel,
             traj):  # pragma: no cover

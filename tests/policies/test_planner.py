@@ -180,6 +180,27 @@ class TestKernelMaths:
         braked = np.cumsum([0.0, 0.09, 0.07, 0.05, 0.03, 0.01, 0, 0, 0, 0, 0])
         np.testing.assert_allclose(traj[0, 1], braked, atol=1e-12)
 
+    def test_speed_ahead_is_read_where_the_car_will_be(self) -> None:
+        # The two cars of test_predict_keeps_each_cars_acceleration: car 0 1 m ahead cruising
+        # at 1.2 m/s (1.2 m in the 1 s predicted), car 1 2 m ahead braking from 1 m/s at
+        # 2 m/s^2 (travels 0, 0.09, 0.16, 0.21, 0.24, 0.25 m at 0.1 s steps, then stops).
+        traj = np.empty((1, 2, 11))
+        kernel.predict(np.array([[1.0, 2.0]]), np.array([[1.2, 1.0]]), np.full((1, 2), 4.0),
+                       np.ones((1, 2)), np.array([0.0]), np.full((1, 200), 4.0), 10.0, 20.0,
+                       np.array([[0.0, -2.0]]), traj)
+
+        def speed(car: int, at: float) -> float:
+            return kernel._speed_ahead(traj, 0, car, (1.0, 2.0)[car], at)
+
+        assert speed(1, 1.5) == 1e9  # a point it has passed: no limit
+        # 2.1 m: 0.1 m on, reached in its second 0.1 s (0.09 -> 0.16 m): 0.7 m/s then.
+        assert speed(1, 2.1) == pytest.approx(0.7, abs=1e-12)
+        assert speed(1, 2.245) == pytest.approx(0.1, abs=1e-12)  # its last 0.01 m
+        assert speed(1, 2.3) == 0.0  # beyond where it stops
+        # Beyond the 1 s predicted (2 m on from 1 m ahead): its last speed, 1.2 m/s.
+        assert speed(0, 3.0) == pytest.approx(1.2, abs=1e-12)
+        assert speed(0, 1.5) == pytest.approx(1.2, abs=1e-12)
+
     def test_predict_follows_a_scaled_profile(self) -> None:
         # A profile of 4 m/s over the first half of a 20 m lap and 1 m/s over the second. An
         # object at 2 m/s, pace ratio 0.5, 0.95 m before the drop (s = 9.05 m; accel 1 m/s^2,
@@ -442,18 +463,19 @@ class TestRoom:
     def test_drift_towards_it_is_not_extrapolated_only_alongside(self) -> None:
         # On grand_loop's longest straight, car 1 at d = -0.3 m and car 0 at d = +0.2 m, car 1
         # 0.4 m ahead (overlapping: under a car length, 0.32 m, plus ROOM) or 1.0 m ahead,
-        # moving sideways at 0.5 m/s towards car 0 or away from it. The lateral speed the
-        # planner extrapolates (object slot 1's) is kept but for the car alongside moving
-        # towards it: 0.
-        track, core, driver = self._pair([0.4, 1.0, 0.4])
+        # moving sideways towards car 0 or away from it. The lateral speed the planner
+        # extrapolates (object slot 1's) is kept but for the car alongside moving towards it:
+        # 0 at 0.2 m/s (under DRIFT_FAST, 0.3 m/s), and at 0.5 m/s extrapolated for
+        # DRIFT_TIME (0.1 s) instead of LATERAL_PREVIEW (0.4 s): 0.5 * 0.1 / 0.4 = 0.125.
+        track, core, driver = self._pair([0.4, 1.0, 0.4, 0.4])
         core.d[:, 0], core.d[:, 1] = 0.2, -0.3
         psi = track.heading_at(core.s)
-        lateral = np.array([[0.0, 0.5], [0.0, 0.5], [0.0, -0.5]])
+        lateral = np.array([[0.0, 0.5], [0.0, 0.5], [0.0, -0.5], [0.0, 0.2]])
         core.velocity[..., 0] = 3.0 * np.cos(psi) - lateral * np.sin(psi)
         core.velocity[..., 1] = 3.0 * np.sin(psi) + lateral * np.cos(psi)
         gap, *_, drift, _, _, _ = driver._objects(core, 0, psi)
-        np.testing.assert_allclose(gap[:, 1], [0.4, 1.0, 0.4], atol=1e-9)
-        np.testing.assert_allclose(drift[:, 1], [0.0, 0.5, -0.5], atol=1e-9)
+        np.testing.assert_allclose(gap[:, 1], [0.4, 1.0, 0.4, 0.4], atol=1e-9)
+        np.testing.assert_allclose(drift[:, 1], [0.125, 0.5, -0.5, 0.0], atol=1e-9)
 
     def test_a_car_alongside_is_left_room(self) -> None:
         # grand_loop's longest straight is 1 m wide: the path is kept within +-(0.5 - 0.12).
@@ -467,13 +489,64 @@ class TestRoom:
         core.d[:, 1] = [-0.1, -0.1, 0.2]
         path = np.zeros((3, 3, 3))
         path[..., 0] = [0.0, 0.1, 0.3]
-        driver._keep_room(core, 0, core.s - core.s[:, :1], path)
+        driver._keep_room(core, 0, core.s - core.s[:, :1], path, np.zeros(path.shape[:2]))
         left = track.half_widths_at(core.s[:, 0])[0]
         np.testing.assert_allclose(left, 0.5, atol=1e-9)
         bound = -0.1 + core.config.car.width + 0.15
         np.testing.assert_allclose(path[0, :, 0], [bound, bound, 0.3], atol=1e-9)
         np.testing.assert_allclose(path[1, :, 0], [0.0, 0.1, 0.3], atol=1e-9)
         np.testing.assert_allclose(path[2, :, 0], [0.38, 0.38, 0.38], atol=1e-9)
+
+    def test_the_paths_slope_and_curvature_keep_the_room_too(self) -> None:
+        # As above, car 1 at d = -0.1 m: the bound is 0.2461 m. Copy 0: the path 0.2 m left of
+        # the bound at the car (0.4461 m) closes on it at a slope of -0.5: held to -0.2 (the
+        # room, 0.2 m, over ROOM_RUN, 1 m); 0.5 m on it is held at the bound, where its
+        # curvature becomes that of the line parallel to the centre line there,
+        # kappa_c / (1 - kappa_c d). Copy 1: car 1 1 m ahead: untouched. Copy 2: moving away
+        # from car 1 (slope +0.3): the slope is left alone, the point 0.5 m on held as in 0.
+        track, core, driver = self._pair([0.1, 1.0, 0.1])
+        core.d[:, 0], core.d[:, 1] = 0.1, -0.1
+        path = np.zeros((3, 2, 3))
+        path[:, 0, 0], path[:, 1, 0] = 0.4461, 0.1
+        path[:, 0, 1] = [-0.5, -0.5, 0.3]
+        path[..., 2] = -2.0
+        ahead = np.array([[0.0, 0.5]] * 3)
+        driver._keep_room(core, 0, core.s - core.s[:, :1], path, ahead)
+        bound = -0.1 + core.config.car.width + 0.15
+        np.testing.assert_allclose(path[:, 0, 1], [-0.2, -0.5, 0.3], atol=1e-9)
+        kappa = track.curvature_at(core.s[0, 0] + 0.5)
+        held = kappa / (1.0 - kappa * bound)
+        np.testing.assert_allclose(path[..., 2], [[-2.0, held], [-2.0, -2.0], [-2.0, held]],
+                                   atol=1e-9)
+        np.testing.assert_allclose(path[:, :, 0], [[0.4461, bound], [0.4461, 0.1],
+                                                   [0.4461, bound]], atol=1e-9)
+
+    def test_cars_on_both_sides_are_left_room(self) -> None:
+        # Three cars abreast on grand_loop's longest straight (1 m wide), car 0 between car 1
+        # and car 2, both alongside (0.1 m ahead, 0.2 m behind). Copy 0: car 1 at -0.3 m,
+        # car 2 at +0.4 m: the path is kept within [-0.3 + 0.3461, 0.4 - 0.3461] =
+        # [0.0461, 0.0539]. Copy 1: car 2 at +0.3 m: squeezed (0.0461 > -0.0461), it takes
+        # the middle, 0. Copy 2: car 1 at -0.45 m, car 2 beyond the border at +0.6 m: the
+        # bounds are -0.1039 and 0.2539.
+        track, driver = load_track("grand_loop"), Planner()
+        core = RaceCore(EnvConfig(track="grand_loop", num_cars=3), track, num_envs=3)
+        core.reset(seed=0)
+        core.s[:] = longest_straight(track)[0] + 2.0
+        core.s[:, 1] += 0.1
+        core.s[:, 2] -= 0.2
+        core.d[:, 0] = [0.0, 0.0, 0.0]
+        core.d[:, 1] = [-0.3, -0.3, -0.45]
+        core.d[:, 2] = [0.4, 0.3, 0.6]
+        driver.reset(core)
+        path = np.zeros((3, 4, 3))
+        path[..., 0] = [-0.2, 0.0, 0.05, 0.3]
+        driver._keep_room(core, 0, core.s - core.s[:, :1], path, np.zeros(path.shape[:2]))
+        room = core.config.car.width + 0.15
+        lo, hi = -0.3 + room, 0.4 - room
+        np.testing.assert_allclose(path[0, :, 0], [lo, lo, 0.05, hi], atol=1e-9)
+        np.testing.assert_allclose(path[1, :, 0], 0.0, atol=1e-9)
+        np.testing.assert_allclose(path[2, :, 0], [-0.45 + room, 0.0, 0.05, 0.6 - room],
+                                   atol=1e-9)
 
 
 class TestBraking:
