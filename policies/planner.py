@@ -387,10 +387,15 @@ class Planner:
                    ahead: FloatArray) -> None:
         """Leave the cars alongside room, as the scripted drivers do and as it expects of
         others (``ROOM``): the offsets of the path it tracks (``path[..., 0]``, (E, P) [m])
-        are kept a car width and ``ROOM_KEPT`` from every car within a car length and
-        ``ROOM_KEPT`` along the track, to the left of those on its right and to the right
-        of those on its left (a car at its own offset counts as on its right), each bound
-        held within the track less ``margin``; squeezed between two, it takes the middle.
+        are kept a car width and ``ROOM_KEPT`` from every car ahead within a car length and
+        ``ROOM_KEPT`` along the track and every car behind that overlaps it (within a car
+        length: its nose past the planner's tail), to the left of those on its right and to
+        the right of those on its left (a car at its own offset counts as on its right), each
+        bound held within the track less ``margin``; squeezed between two, it takes the
+        middle. A car behind whose nose has not reached its tail is not alongside: there the
+        planner may close the door, as racing's rules allow (room for one up to 0.15 m short
+        of it too: 89 of 200 races won in front of `league_racer` on the tuning tracks; only
+        for one that overlaps: 123, four planners' contacts 5 and 14 in 200 races).
         The path's slope at the car is kept from closing on a bound within ``ROOM_RUN`` of
         track, and where a bound holds the path its curvature is the bound's (parallel to the
         centre line): the tracking steers by the slope and curvature as much as by the
@@ -399,7 +404,7 @@ class Planner:
         first N columns); ``ahead`` the arc distances of the path's points ahead of the car,
         (E, P) [m] (``tracking.preview``)."""
         params = core.config.car
-        alongside = (core.racing & (np.abs(gap) < params.length + ROOM_KEPT)
+        alongside = (core.racing & (gap < params.length + ROOM_KEPT) & (gap > -params.length)
                      & (np.arange(core.num_cars) != car)[None, :])
         if not alongside.any():
             return

@@ -483,11 +483,12 @@ class TestRoom:
         # a car width and 0.15 m (0.1961 + 0.15) to the left of -0.1: 0.2461 m. Copy 1: car 1
         # 1 m ahead, not alongside: the path is left alone. Copy 2: car 1 at +0.2 m, car 0 on
         # its left at +0.25 m: the bound, 0.5461 m, lies beyond the border less the margin,
-        # 0.38 m, and is held there.
-        track, core, driver = self._pair([0.1, 1.0, 0.1])
-        core.d[:, 0] = [0.1, 0.1, 0.25]
-        core.d[:, 1] = [-0.1, -0.1, 0.2]
-        path = np.zeros((3, 3, 3))
+        # 0.38 m, and is held there. Copy 3: car 1 0.4 m behind, within a car length and
+        # 0.15 m but not overlapping (its nose 0.08 m short of car 0's tail): not alongside.
+        track, core, driver = self._pair([0.1, 1.0, 0.1, -0.4])
+        core.d[:, 0] = [0.1, 0.1, 0.25, 0.1]
+        core.d[:, 1] = [-0.1, -0.1, 0.2, -0.1]
+        path = np.zeros((4, 3, 3))
         path[..., 0] = [0.0, 0.1, 0.3]
         driver._keep_room(core, 0, core.s - core.s[:, :1], path, np.zeros(path.shape[:2]))
         left = track.half_widths_at(core.s[:, 0])[0]
@@ -496,6 +497,7 @@ class TestRoom:
         np.testing.assert_allclose(path[0, :, 0], [bound, bound, 0.3], atol=1e-9)
         np.testing.assert_allclose(path[1, :, 0], [0.0, 0.1, 0.3], atol=1e-9)
         np.testing.assert_allclose(path[2, :, 0], [0.38, 0.38, 0.38], atol=1e-9)
+        np.testing.assert_allclose(path[3, :, 0], [0.0, 0.1, 0.3], atol=1e-9)
 
     def test_the_paths_slope_and_curvature_keep_the_room_too(self) -> None:
         # As above, car 1 at d = -0.1 m: the bound is 0.2461 m. Copy 0: the path 0.2 m left of
