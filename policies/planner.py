@@ -16,13 +16,12 @@ graph-based planner (Stahl et al., ITSC 2019), batched over env copies:
   two overlap unless it comes across fast, ``DRIFT_FAST``: a car alongside leaves room, and
   the planner leaves the cars alongside room in turn, ``ROOM``, ``_keep_room``); a candidate
   that leaves the track or comes within a car length and width plus margins of a predicted
-  car is not free. The
-  free one that reaches the horizon soonest wins; a blocked one is tried again held, where it
-  overlaps the blocking car, to the speed that car will have a car length further on (across
-  behind it, then past): it follows in space, not in time, so that it closes in under braking
-  rather than braking when the car ahead does; with none free it follows, and after
-  ``RUNUP_AFTER`` seconds stuck it drops back for a run-up. No lane change starts in a tight
-  bend (``SWITCH_CURVATURE``): a pass there is set up on the approach.
+  car is not free. The free one that reaches the horizon soonest wins; a blocked one is
+  tried again held, where it overlaps the blocking car, to the speed that car will have a car
+  length further on (across behind it, then past): it follows in space, not in time, so that
+  it closes in under braking rather than braking when the car ahead does; with none free it
+  follows, and after ``RUNUP_AFTER`` seconds stuck it drops back for a run-up. No lane change
+  starts in a tight bend (``SWITCH_CURVATURE``): a pass there is set up on the approach.
 * **Defence**: with a car close behind (``cover_gap``) and a corner ahead, it takes the inside
   lane of that corner once, until the apex, then its line again.
 * **Tracking** (:mod:`~h2h_racing.policies.tracking`): the path's own curvature as
@@ -122,8 +121,8 @@ ROOM_RUN = 1.0
 """Least run of track over which the path it tracks may close on the room it leaves a car
 alongside [m] (``_keep_room``): its slope towards it is at most the room left over this."""
 ROOM_KEPT = 0.15
-"""Distance beyond a car width kept from a car alongside (within a car length and this of it
-along the track), as the scripted drivers keep [m]."""
+"""Distance beyond a car width kept from a car alongside (ahead within a car length and this
+along the track, or behind and overlapping), as the scripted drivers keep [m]."""
 
 _CACHE: weakref.WeakKeyDictionary[Track, dict[tuple[float, ...], Lanes]] = (
     weakref.WeakKeyDictionary())

@@ -321,8 +321,9 @@ def _candidate(lane, trans, ref, ref_slope, s_start, v_start, step, samples, e, 
                           obj_lo, obj_hi, traj, obj_dd, obj_half_len, obj_half_wid, obj_valid,
                           params, True)
     if hit >= 0:
-        # First try the same path held to that car's predicted speed only where it overlaps
-        # it sideways: move across behind it, then go (a pass from right behind a car).
+        # First try the same path held, only where it overlaps that car sideways, to the speed
+        # the car will have a car length further on (where it will be, not when:
+        # _speed_ahead): move across behind it, then go (a pass from right behind a car).
         limit = work[4]
         front = params[P_HALF_LEN] + obj_half_len[e, hit] + params[P_LONG_MARGIN]
         for i in range(samples + 1):
@@ -341,7 +342,7 @@ def _candidate(lane, trans, ref, ref_slope, s_start, v_start, step, samples, e, 
         if again < 0:
             hit = -1
         else:
-            # The same path behind the car it would hit, at that car's predicted speed.
+            # The same path behind the car it would hit, at the speed it will have there.
             for i in range(samples + 1):
                 v_lim[i] = min(limit[i], _speed_ahead(traj, e, hit, obj_gap[e, hit],
                                                       i * step + front))
