@@ -294,7 +294,8 @@ def speed_profile(curvature: FloatArray, seg_len: FloatArray, v_max: float, a_la
     forward pass ``v_{i+1} <= sqrt(v_i^2 + 2 a_accel l_i)``. Both passes start at the
     slowest point of the loop, whose limit no pass can lower, so one sweep each is exact.
 
-    >>> speed_profile(np.array([0.0, 1.0, 0.0, 0.0]), np.ones(4), 4.0, 1.0, 1.0, 1.0).round(3).tolist()
+    >>> kappa = np.array([0.0, 1.0, 0.0, 0.0])
+    >>> speed_profile(kappa, np.ones(4), 4.0, 1.0, 1.0, 1.0).round(3).tolist()
     [1.732, 1.0, 1.732, 2.236]
 
     Args:
