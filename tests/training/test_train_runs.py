@@ -34,6 +34,23 @@ def rows(out: Path) -> list[dict[str, str]]:
     return read_curves(out / "curves.csv")[1]
 
 
+def twenty_seconds_an_update(monkeypatch: pytest.MonkeyPatch) -> dict[str, int]:
+    """Count PPO updates (``["count"]``) on a clock on which each takes 20 s and the run's
+    setup none."""
+    from rsl_rl.algorithms import PPO
+
+    updates = {"count": 0}
+    update = PPO.update
+
+    def counted(self: PPO) -> dict[str, float]:
+        updates["count"] += 1
+        return update(self)
+
+    monkeypatch.setattr(PPO, "update", counted)
+    monkeypatch.setattr(train_progress, "_now", lambda: 20.0 * updates["count"])
+    return updates
+
+
 def tags(out: Path) -> set[str]:
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
@@ -134,21 +151,10 @@ class TestResume:
         # index 1 (its checkpoint model_1.pt), then drawing the next random track raised. The
         # row of that iteration (curves' 2) waited in memory for the next one and was lost:
         # the resumed run had no row 2 and its clock restarted from 0 (seconds_at found none).
-        from rsl_rl.algorithms import PPO
-
         from h2h_racing.training import train as train_module
         from h2h_racing.training.tracks import ProceduralTracks
 
-        updates = {"count": 0}
-        update = PPO.update
-
-        def counted(self: PPO) -> dict[str, float]:
-            updates["count"] += 1
-            return update(self)
-
-        # Every iteration takes 20 s on this clock, the runs' setup none.
-        monkeypatch.setattr(PPO, "update", counted)
-        monkeypatch.setattr(train_progress, "_now", lambda: 20.0 * updates["count"])
+        updates = twenty_seconds_an_update(monkeypatch)
         set_tracks = train_module._set_tracks
         calls = {"count": 0}
 
@@ -281,17 +287,7 @@ class TestBudget:
             self, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
         # A clock on which every iteration takes 20 s: the 60 s budget holds 3 iterations.
         # Before, train checked the time every 10 iterations, so a budget ran over by up to 9.
-        from rsl_rl.algorithms import PPO
-
-        iterations = {"count": 0}
-        update = PPO.update
-
-        def counted(self: PPO) -> dict[str, float]:
-            iterations["count"] += 1
-            return update(self)
-
-        monkeypatch.setattr(PPO, "update", counted)
-        monkeypatch.setattr(train_progress, "_now", lambda: 20.0 * iterations["count"])
+        twenty_seconds_an_update(monkeypatch)
         runner = train(SMALL, iterations=12, out=tmp_path, minutes=1.0)
         assert runner.current_learning_iteration == 3
         assert [r["seconds"] for r in rows(tmp_path)] == ["20", "40", "60"]
