@@ -6,7 +6,8 @@
     python experiments/routes/retrain/summarise.py --pace-table ppo_more/ppo5_s0  # a folder's run
 
 Every subfolder's time-trial JSONs get a row too, except `*_shipped.json` (a run on the
-shipped tracks, `--track all`, as `ppo_more/` keeps beside its routes).
+shipped tracks, `--track all`, as `ppo_more/` keeps beside its routes) and `*_routelike.json`
+(a run on the 30 route-like procedural tracks, `ppo_step6/routelike.py`).
 
 racing_line's laps are its own run alone on the routes (`racing_line.json` beside this file,
 `h2h-racing evaluate --policy racing_line --track ../shared/data/deepracer_tracks --episodes
@@ -238,7 +239,9 @@ def main() -> None:
         for path in sorted(folder.glob("*.json")):
             if path.stem.startswith("obstacle"):  # its rows are the second table's
                 continue
-            if path.stem.endswith("_shipped"):  # the shipped tracks (ppo_more/), not the routes
+            # The shipped tracks (ppo_more/) or the route-like procedural ones (ppo_step6/,
+            # racing_line's too), not the routes.
+            if path.stem.endswith(("_shipped", "_routelike")):
                 continue
             camera = path.stem.startswith("camera")
             row = time_trial(path.stem, ppo_ref if camera else SHIPPED_PPO,

@@ -1,8 +1,8 @@
 """A driver on 30 route-like procedural tracks: one-lap attempts, as `h2h-racing evaluate` runs
 them on a folder of routes (it is that command, on track files written here).
 
-    python experiments/routes/retrain/ppo_step6/routelike.py --policy runs/routes_ppo6_s0/policy.pt \
-        --json experiments/routes/retrain/ppo_step6/ppo6_s0_routelike.json
+    python experiments/routes/retrain/ppo_step6/routelike.py \
+        --policy runs/routes_ppo6_s0/policy.pt --json .../ppo_step6/ppo6_s0_routelike.json
     python experiments/routes/retrain/ppo_step6/routelike.py --policy racing_line --json ...
 
 The tracks are those of `experiments/planner/sweep_routelike.py`'s `route_like(k)`, k = 0-29:
