@@ -99,3 +99,22 @@ def test_a_folders_shipped_tracks_json_gets_no_routes_row(summarise, tmp_path, m
     out = capsys.readouterr().out
     assert "| ppo_more/ppo5_s0 | 1 of 1 | - | 1 of 1 | - | +2.0 % |" in out
     assert "ppo5_s0_shipped" not in out
+
+
+def test_a_folders_routelike_json_gets_no_routes_row(summarise, tmp_path, monkeypatch, capsys):
+    # ppo_step6/ keeps each seed's run on the 30 route-like procedural tracks, and
+    # racing_line's, beside its routes JSON: neither is a row of the routes table (the old code
+    # printed them as routes rows).
+    line = run_json("racing_line", 10.0, 10.0)
+    write(tmp_path, "racing_line", line)
+    write(tmp_path, "racing_line_shipped", line)
+    (tmp_path / "ppo_step6").mkdir()
+    write(tmp_path / "ppo_step6", "ppo6_s0", run_json("ppo6.pt", 10.3, 10.0))
+    write(tmp_path / "ppo_step6", "ppo6_s0_routelike", run_json("ppo6.pt", 10.2, 10.0))
+    write(tmp_path / "ppo_step6", "racing_line_routelike", line)
+    monkeypatch.setattr(summarise, "HERE", tmp_path)
+    monkeypatch.setattr(sys, "argv", ["summarise.py"])
+    summarise.main()
+    out = capsys.readouterr().out
+    assert "| ppo_step6/ppo6_s0 | 1 of 1 | - | 1 of 1 | - | +3.0 % |" in out
+    assert "_routelike" not in out
