@@ -14,7 +14,9 @@ graph-based planner (Stahl et al., ITSC 2019), batched over env copies:
   speed profile over a horizon of a few metres. Every other car and bot is predicted along
   the track (its acceleration and pace, its lateral speed, but not towards the car while the
   two overlap unless it comes across fast, ``DRIFT_FAST``: a car alongside leaves room, and
-  the planner leaves the cars alongside room in turn, ``ROOM``, ``_keep_room``); a candidate
+  the planner leaves the cars alongside room in turn, ``ROOM``, ``_keep_room``); a car that
+  drives the racing line (``LINE_FIT``) is predicted on it, and at its scaled profile's speed
+  while it keeps to that (``ON_PROFILE``), braking for a bend to the bend's speed; a candidate
   that leaves the track or comes within a car length and width plus margins of a predicted
   car is not free. The free one that reaches the horizon soonest wins; a blocked one is
   tried again held, where it overlaps the blocking car, to the speed that car will have a car
@@ -120,6 +122,15 @@ contacts in 300 races, against 33 without; 0.5 m/s: 28)."""
 ROOM_RUN = 1.0
 """Least run of track over which the path it tracks may close on the room it leaves a car
 alongside [m] (``_keep_room``): its slope towards it is at most the room left over this."""
+LINE_FIT = 0.1
+"""Mean distance from the racing line (smoothed over ``FIT_TIME``) under which another car
+counts as driving it [m]: it is predicted along the line (``kernel._span``)."""
+FIT_TIME = 1.0
+"""Time over which another car's distance from the racing line is smoothed [s]."""
+ON_PROFILE = 0.2
+"""Share of the scaled profile speed within which a car that drives the racing line counts as
+keeping to that profile: it is predicted to keep to it (``kernel.predict``), braking for a
+bend only to the bend's scaled speed, not extrapolated to a stop."""
 ROOM_KEPT = 0.15
 """Distance beyond a car width kept from a car alongside (ahead within a car length and this
 along the track, or behind and overlapping), as the scripted drivers keep [m]."""
@@ -270,6 +281,7 @@ class Planner:
         self._stuck = np.zeros(0)
         self._runup_left = np.zeros(0)
         self._packed = np.zeros(0)
+        self._fit = np.zeros((0, 0))
 
     def reset(self, core: RaceCore) -> None:
         """Build (or fetch) the lanes of ``core.track`` and clear every copy's plan."""
@@ -296,6 +308,7 @@ class Planner:
         self._stuck = np.zeros(e)
         self._runup_left = np.zeros(e)
         self._packed = self._params(core)
+        self._fit = np.full((e, core.num_cars), 3.0 * LINE_FIT)
 
     def _params(self, core: RaceCore) -> FloatArray:
         """The kernel's packed parameters (``kernel.P_*``) for ``core``'s car and rules."""
@@ -323,6 +336,7 @@ class Planner:
         params[kernel.P_A_LANE] = HOLD_GRIP * params[kernel.P_A_LAT]
         params[kernel.P_SPEED_PREVIEW] = SPEED_PREVIEW
         params[kernel.P_STEADY_GAP] = self.steady_gap
+        params[kernel.P_ROOM] = ROOM
         return params
 
     def act(self, core: RaceCore, car: int) -> npt.NDArray[np.float32]:
@@ -340,7 +354,7 @@ class Planner:
         kc = track.curvature_at(s)
         err = np.remainder(core.yaw[:, car] - psi[:, car] + math.pi, 2.0 * math.pi) - math.pi
         slope = np.clip(np.tan(np.clip(err, -1.2, 1.2)) * (1.0 - kc * d), -1.0, 1.0)
-        objects = self._objects(core, car, psi)
+        objects = self._objects(core, car, psi, self._off_line(core, lanes))
         cap, ratio, accel, top = self._pace(core, car, lanes)
         traj = np.empty(objects[0].shape + (PREDICT_STEPS + 1,))
         kernel.predict(objects[0], objects[3], cap, ratio, s, lanes.speed[:1], lanes.inv_ds,
@@ -467,6 +481,9 @@ class Planner:
         cap = np.full(self._ratio.shape, core.config.max_speed)
         ratio, accel = self._ratio, np.clip(self._accel, -core.config.car.max_brake,
                                            core.config.car.max_accel)
+        on_profile = ((self._fit < LINE_FIT) & core.racing
+                      & (np.abs(core.speed - self._ratio * profile) < ON_PROFILE * profile))
+        accel = np.where(on_profile, np.nan, accel)
         if core.num_bots:
             cap = np.concatenate([cap, core.bot_speed], axis=1)
             ratio = np.concatenate([ratio, np.full(core.bot_speed.shape, 10.0)], axis=1)
@@ -475,9 +492,22 @@ class Planner:
         return (np.ascontiguousarray(cap), np.ascontiguousarray(ratio),
                 np.ascontiguousarray(accel), np.ascontiguousarray(top))
 
-    def _objects(self, core: RaceCore, car: int, psi: FloatArray) -> tuple[Any, ...]:
+    def _off_line(self, core: RaceCore, lanes: Lanes) -> FloatArray:
+        """Every car's offset from the racing line, (E, N) [m]; updates how far each keeps
+        from it on average (``_fit``, smoothed over ``FIT_TIME``), which says whether it
+        drives the line (under ``LINE_FIT``)."""
+        line = np.interp(np.remainder(core.s, lanes.length) * lanes.inv_ds,
+                         np.arange(lanes.offset.shape[1] + 1),
+                         np.append(lanes.offset[0], lanes.offset[0, 0]))
+        off_line = core.d - line
+        self._fit += min(1.0, core.dt / FIT_TIME) * (np.abs(off_line) - self._fit)
+        return off_line
+
+    def _objects(self, core: RaceCore, car: int, psi: FloatArray,
+                 off_line: FloatArray) -> tuple[Any, ...]:
         """Other cars and bots as the kernel's object slots (E, N + B) (see ``plan``);
-        ``psi`` is the track's heading at every car, (E, N) [rad]."""
+        ``psi`` is the track's heading at every car, (E, N) [rad], ``off_line`` every car's
+        offset from the racing line (``_off_line``), (E, N) [m]."""
         length = core.track.length
         car_len, car_wid = 0.5 * core.config.car.length, 0.5 * core.config.car.width
         gap = core.s - core.s[:, car : car + 1]
@@ -498,6 +528,9 @@ class Planner:
         # in all).
         fast = np.where(np.abs(dd) > DRIFT_FAST, dd * (DRIFT_TIME / kernel.LATERAL_PREVIEW), 0.0)
         dd = np.where(beside & toward, fast, dd)
+        # A car that drives the racing line (racing_line, another planner) is predicted along
+        # it (kernel._span), unless it is beside this one now: then it leaves room, as above.
+        err = np.where((self._fit < LINE_FIT) & ~beside & core.racing, off_line, np.nan)
         lo = hi = core.d
         half_len = np.full(gap.shape, car_len)
         half_wid = np.full(gap.shape, car_wid)
@@ -514,9 +547,10 @@ class Planner:
             half_len = np.concatenate([half_len, np.full(bot_gap.shape, car_len)], axis=1)
             half_wid = np.concatenate([half_wid, np.full(bot_gap.shape, car_wid)], axis=1)
             valid = np.concatenate([valid, np.ones(bot_gap.shape, dtype=bool)], axis=1)
+            err = np.concatenate([err, np.full(bot_gap.shape, np.nan)], axis=1)
         return (np.ascontiguousarray(gap), np.ascontiguousarray(lo), np.ascontiguousarray(hi),
                 np.ascontiguousarray(speed), np.ascontiguousarray(dd), half_len, half_wid,
-                np.ascontiguousarray(valid))
+                np.ascontiguousarray(valid), np.ascontiguousarray(err))
 
     def _defence(self, core: RaceCore, car: int, lanes: Lanes) -> FloatArray:
         """Lane bonus (E, NL) [s]: the inside lane of the next corner while an attacker is

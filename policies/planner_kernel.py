@@ -20,16 +20,18 @@ the car's speed) pass. Arc position advances at ``ds/dt = v / (1 - kappa_c d)``,
 inside line gains track.
 
 Every other car (and bot) is predicted along the track (``predict``: its acceleration, up to
-the planner's profile scaled by its pace) while its lateral span is the interval between its
-offset now and its offset extrapolated with its lateral speed for ``LATERAL_PREVIEW``
-seconds. A candidate whose body comes within a car length plus a margin along the track and
-a car width plus a margin across of a predicted car, at the same time, is not free, unless
+the planner's profile scaled by its pace, or that scaled profile itself for a car that keeps to
+it) while its lateral span is the interval between its offset now and its offset extrapolated
+with its lateral speed for ``LATERAL_PREVIEW`` seconds, or, for a car that drives the racing
+line, the line itself (``_span``), held where the candidate draws alongside (a car overlapped
+leaves room). A candidate whose body comes within a car length plus a margin along the track
+and a car width plus a margin across of a predicted car, at the same time, is not free, unless
 the two were already that near and the candidate gets no nearer; so is one that leaves the
 track. Of the free ones, the one that reaches the end of the horizon soonest wins (with small
 costs for ending off the racing line and for leaving the tracked path, so that ties do not
-dither). A blocked candidate is tried again held to the blocking car's speed where it
-overlaps it sideways, and failing that, behind it at its speed, at ``P_FOLLOW_COST`` (and
-``SIDE_COST`` more when it closes in on a car beside it); the cheapest wins.
+dither). A blocked candidate is tried again held to the blocking car's speed where it overlaps
+it sideways, and failing that, behind it at its speed, at ``P_FOLLOW_COST`` (and ``SIDE_COST``
+more when it closes in on a car beside it); the cheapest wins.
 """
 
 from __future__ import annotations
@@ -59,6 +61,7 @@ from h2h_racing.policies.planner_motion import (  # noqa: F401  (re-exported for
     P_HALF_WID,
     P_LAT_MARGIN,
     P_LONG_MARGIN,
+    P_ROOM,
     P_SPEED_PREVIEW,
     P_STEADY_GAP,
     P_SWITCH_COST,
@@ -92,13 +95,16 @@ OVER_SPEED = 0.1
 """Speed above a candidate's braking limit at the car that is tolerated [m/s]."""
 OVER_WEIGHT = 0.5
 """Metres of track excess that one m/s above the braking limit counts as [s]."""
+LINE_RELAX = 1.0
+"""Time over which a car that drives the racing line is predicted to close its offset from
+it [s]."""
 
 @njit(cache=True)
 def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, transitions,
          horizon, samples, obj_gap, obj_lo, obj_hi, traj, obj_v, obj_dd, obj_half_len,
-         obj_half_wid, obj_valid, obj_top, lane_bonus, plan_lane, plan_start, plan_error,
-         plan_slope, plan_length, plan_hold, params, reanchor, gap_extra, look, choice, d_look,
-         v_cmd, report, track_at, track_out):  # pragma: no cover
+         obj_half_wid, obj_valid, obj_err, obj_top, lane_bonus, plan_lane, plan_start,
+         plan_error, plan_slope, plan_length, plan_hold, params, reanchor, gap_extra, look,
+         choice, d_look, v_cmd, report, track_at, track_out):  # pragma: no cover
     """Choose a manoeuvre per env copy and return its look-ahead offset and speed command.
 
     Args:
@@ -116,8 +122,9 @@ def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, tra
         samples: Samples along the horizon.
         obj_*: Other cars and bots, (E, J): arc gap ahead of the car (wrapped) [m], lateral
             span now (lo, hi) [m], speed [m/s], lateral speed [m/s], half length and half
-            width [m], whether the slot holds an object, and the top speed it reached lately
-            [m/s].
+            width [m], whether the slot holds an object, its offset from the racing line
+            when it drives that line (nan when it does not: ``_span``) [m], and the top
+            speed it reached lately [m/s].
         traj: (E, J, P) each object's predicted travel (``predict``) [m].
         lane_bonus: (E, NL) cost subtracted from each lane's candidates [s] (defence).
         plan_lane, plan_start, plan_error, plan_slope, plan_length: (E,) the path being
@@ -159,6 +166,7 @@ def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, tra
     lane_k[:hold_lane] = base_k
     num_trans = transitions.shape[1]
     work = np.empty((5, samples + 1))
+    held = np.empty((obj_gap.shape[1], 2))
     report[:] = np.nan
     for e in range(num_env):
         step = horizon[e] / samples
@@ -231,8 +239,8 @@ def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, tra
                 cost, v1, hit, excess = _candidate(
                     lane, trans, ref, ref_slope, s0[e], v0[e], step, samples, e, lane_d,
                     lane_v, lane_k, centre, inv_ds, length, horizon[e], obj_gap, obj_lo,
-                    obj_hi, traj, obj_dd, obj_half_len, obj_half_wid, obj_valid, params,
-                    work)
+                    obj_hi, traj, obj_dd, obj_half_len, obj_half_wid, obj_valid, obj_err,
+                    params, work, held)
                 if j < num_trans:
                     report[e, lane, j, 0] = cost
                     report[e, lane, j, 1] = hit
@@ -283,7 +291,8 @@ def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, tra
 @njit(cache=True)
 def _candidate(lane, trans, ref, ref_slope, s_start, v_start, step, samples, e, lane_d, lane_v,
                lane_k, centre, inv_ds, length, horizon, obj_gap, obj_lo, obj_hi, traj, obj_dd,
-               obj_half_len, obj_half_wid, obj_valid, params, work):  # pragma: no cover
+               obj_half_len, obj_half_wid, obj_valid, obj_err, params, work,
+               held):  # pragma: no cover
     """Evaluate one candidate: the blend from (``ref``, ``ref_slope``) onto ``lane`` over
     ``trans`` metres (``_stretched``). Returns its cost [s] (time to the horizon, plus the
     follow cost when it must slow behind a car, plus the cost of ending off the racing line),
@@ -319,7 +328,7 @@ def _candidate(lane, trans, ref, ref_slope, s_start, v_start, step, samples, e, 
     excess = max(excess, OVER_WEIGHT * max(over - OVER_SPEED, 0.0))
     t, hit, beside = _run(dpath, vel, times, step, s_start, e, centre, inv_ds, length, obj_gap,
                           obj_lo, obj_hi, traj, obj_dd, obj_half_len, obj_half_wid, obj_valid,
-                          params, True)
+                          obj_err, lane_d, params, held, True)
     if hit >= 0:
         # First try the same path held, only where it overlaps that car sideways, to the speed
         # the car will have a car length further on (where it will be, not when:
@@ -328,9 +337,9 @@ def _candidate(lane, trans, ref, ref_slope, s_start, v_start, step, samples, e, 
         front = params[P_HALF_LEN] + obj_half_len[e, hit] + params[P_LONG_MARGIN]
         for i in range(samples + 1):
             limit[i] = v_lim[i]
-            moved = obj_dd[e, hit] * min(times[i], LATERAL_PREVIEW)
-            lo = min(obj_lo[e, hit], obj_lo[e, hit] + moved)
-            hi = max(obj_hi[e, hit], obj_hi[e, hit] + moved)
+            lo, hi = _span(e, hit, times[i], s_start + obj_gap[e, hit]
+                           + _travel(traj, e, hit, times[i]), obj_lo, obj_hi, obj_dd, obj_err,
+                           lane_d, inv_ds, length)
             apart = max(lo - dpath[i], dpath[i] - hi, 0.0)
             if apart < params[P_HALF_WID] + obj_half_wid[e, hit] + params[P_LAT_MARGIN]:
                 v_lim[i] = min(v_lim[i], _speed_ahead(traj, e, hit, obj_gap[e, hit],
@@ -338,7 +347,7 @@ def _candidate(lane, trans, ref, ref_slope, s_start, v_start, step, samples, e, 
         _profile(v_lim, vel, step, v_start, params[P_A_ACC], params[P_A_BRK], samples)
         t, again, beside = _run(dpath, vel, times, step, s_start, e, centre, inv_ds, length,
                                 obj_gap, obj_lo, obj_hi, traj, obj_dd, obj_half_len,
-                                obj_half_wid, obj_valid, params, True)
+                                obj_half_wid, obj_valid, obj_err, lane_d, params, held, True)
         if again < 0:
             hit = -1
         else:
@@ -349,7 +358,7 @@ def _candidate(lane, trans, ref, ref_slope, s_start, v_start, step, samples, e, 
             _profile(v_lim, vel, step, v_start, params[P_A_ACC], params[P_A_BRK], samples)
             t, _, _ = _run(dpath, vel, times, step, s_start, e, centre, inv_ds, length,
                            obj_gap, obj_lo, obj_hi, traj, obj_dd, obj_half_len, obj_half_wid,
-                           obj_valid, params, False)
+                           obj_valid, obj_err, lane_d, params, held, False)
             # Slowing down does not mend a path that closes in on a car beside it.
             t += params[P_FOLLOW_COST] + (SIDE_COST if beside else 0.0)
     line_end = _table(lane_d, 0, s_start + horizon, inv_ds, length)
@@ -404,7 +413,8 @@ def _geometry(lane_d, lane_k, centre, lane, start, error, slope, trans, s, inv_d
 
 @njit(cache=True)
 def _run(dpath, vel, times, step, s_start, e, centre, inv_ds, length, obj_gap, obj_lo, obj_hi,
-         traj, obj_dd, obj_half_len, obj_half_wid, obj_valid, params, check):  # pragma: no cover
+         traj, obj_dd, obj_half_len, obj_half_wid, obj_valid, obj_err, lane_d, params, held,
+         check):  # pragma: no cover
     """Drive a candidate (offsets ``dpath``, speeds ``vel`` at its samples; the time at each
     sample is written into ``times``): return the time to its end [s], the first object it
     comes too near (-1: none; not looked for without ``check``) and whether it comes too
@@ -412,6 +422,7 @@ def _run(dpath, vel, times, step, s_start, e, centre, inv_ds, length, obj_gap, o
     count = dpath.shape[0] - 1
     t = 0.0
     times[0] = 0.0
+    held[:] = np.nan
     for i in range(count + 1):
         if i > 0:
             kc = _table(centre, 0, s_start + (i - 0.5) * step, inv_ds, length)
@@ -429,12 +440,20 @@ def _run(dpath, vel, times, step, s_start, e, centre, inv_ds, length, obj_gap, o
             front = (params[P_HALF_LEN] + obj_half_len[e, o] + params[P_LONG_MARGIN]
                      + params[P_CLOSING_MARGIN] * closing)
             back = params[P_HALF_LEN] + obj_half_len[e, o]
+            # A car on its line holds its offset from where this one draws within ROOM of
+            # overlapping it: it leaves room, as a car beside now is expected to (the
+            # driver's _objects).
+            if (math.isnan(held[o, 0]) and not math.isnan(obj_err[e, o])
+                    and abs(gap) < back + params[P_ROOM]):
+                held[o, 0], held[o, 1] = _span(e, o, t, s_start + i * step + gap, obj_lo,
+                                               obj_hi, obj_dd, obj_err, lane_d, inv_ds, length)
             if gap >= front or gap <= -back:
                 continue
-            # Its lateral span: now and extrapolated at its lateral speed.
-            moved = obj_dd[e, o] * min(t, LATERAL_PREVIEW)
-            lo = min(obj_lo[e, o], obj_lo[e, o] + moved)
-            hi = max(obj_hi[e, o], obj_hi[e, o] + moved)
+            if math.isnan(held[o, 0]):
+                lo, hi = _span(e, o, t, s_start + i * step + gap, obj_lo, obj_hi, obj_dd,
+                               obj_err, lane_d, inv_ds, length)
+            else:
+                lo, hi = held[o, 0], held[o, 1]
             apart = max(lo - dpath[i], dpath[i] - hi, 0.0)
             if apart >= params[P_HALF_WID] + obj_half_wid[e, o] + params[P_LAT_MARGIN]:
                 continue
@@ -452,6 +471,22 @@ def _run(dpath, vel, times, step, s_start, e, centre, inv_ds, length, obj_gap, o
             _finish_times(dpath, vel, times, step, s_start, centre, inv_ds, length, i, t)
             return t, o, gap < back
     return t, -1, False
+
+
+@njit(cache=True, inline="always")
+def _span(e, o, t, s_obj, obj_lo, obj_hi, obj_dd, obj_err, lane_d, inv_ds,
+          length):  # pragma: no cover
+    """Lateral span (lo, hi) [m] of object ``o`` predicted ``t`` seconds on, where it is at
+    arc position ``s_obj``: a car that drives the racing line (``obj_err`` its offset from
+    it, nan for one that does not) on the line, its offset from it closing over
+    ``LINE_RELAX``; any other one over its offset now and that extrapolated at its lateral
+    speed for up to ``LATERAL_PREVIEW``."""
+    err = obj_err[e, o]
+    if not math.isnan(err):
+        d = _table(lane_d, 0, s_obj, inv_ds, length) + err * max(1.0 - t / LINE_RELAX, 0.0)
+        return d, d
+    moved = obj_dd[e, o] * min(t, LATERAL_PREVIEW)
+    return min(obj_lo[e, o], obj_lo[e, o] + moved), max(obj_hi[e, o], obj_hi[e, o] + moved)
 
 
 @njit(cache=True)

@@ -19,8 +19,8 @@ FOLLOW_PREVIEW = 0.6
 P_A_LAT, P_A_ACC, P_A_BRK, P_EDGE, P_HALF_LEN, P_HALF_WID, P_LONG_MARGIN, P_LAT_MARGIN, \
     P_CLOSING_MARGIN, P_SWITCH_COST, P_DEV_COST, P_GAIN, P_DT, P_FOLLOW_GAP, P_FOLLOW_TIME, \
     P_FOLLOW_GAIN, P_V_MAX, P_FOLLOW_COST, P_SWITCH_CURVATURE, P_A_LANE, P_SPEED_PREVIEW, \
-    P_STEADY_GAP = range(22)
-NUM_PARAMS = 22
+    P_STEADY_GAP, P_ROOM = range(23)
+NUM_PARAMS = 23
 STEADY_PACE = 0.7
 """Share of the top speed that a car ahead must have reached lately (``Planner``'s
 ``TOP_DECAY``) to count as a rival as fast as the planner on the straights, not a slower car
@@ -97,11 +97,15 @@ def predict(obj_gap, obj_speed, obj_cap, obj_ratio, s0, line_v, inv_ds, length, 
     slowly is not expected to speed away), up to the planner's racing-line profile scaled by
     its pace ratio (its speed over the profile's where the profile is below top speed,
     estimated by the driver) and at most ``obj_cap``, and brakes as that scaled profile does:
-    ``v <- max(min(v + a dt, cap, ratio v_line(s)), 0)``.
+    ``v <- max(min(v + a dt, cap, ratio v_line(s)), 0)``. An object whose acceleration is nan
+    keeps to that scaled profile (the driver's ``ON_PROFILE``: a car on the racing line at the
+    speed of its profile): ``v <- min(cap, ratio v_line(s))``, braking for a bend to the bend's
+    scaled speed rather than extrapolated to a stop.
 
     Args:
         obj_gap, obj_speed, obj_cap, obj_ratio, obj_accel: (E, J) arc gap ahead of the car
-            [m], speed, top speed [m/s], pace ratio and acceleration [m/s^2].
+            [m], speed, top speed [m/s], pace ratio and acceleration [m/s^2] (nan: it keeps
+            to its scaled profile).
         s0: (E,) the car's arc position [m].
         line_v: Racing-line profile, (1, K) [m/s].
         traj: Out (E, J, K + 1): distance travelled [m] at ``k PREDICT_DT``.
@@ -115,7 +119,10 @@ def predict(obj_gap, obj_speed, obj_cap, obj_ratio, s0, line_v, inv_ds, length, 
             for k in range(1, traj.shape[2]):
                 limit = min(obj_cap[e, o],
                             obj_ratio[e, o] * _table(line_v, 0, s + travelled, inv_ds, length))
-                v_next = max(min(v + obj_accel[e, o] * PREDICT_DT, limit), 0.0)
+                if math.isnan(obj_accel[e, o]):  # on its scaled profile: it keeps to it
+                    v_next = limit
+                else:
+                    v_next = max(min(v + obj_accel[e, o] * PREDICT_DT, limit), 0.0)
                 travelled += 0.5 * (v + v_next) * PREDICT_DT
                 v = v_next
                 traj[e, o, k] = travelled

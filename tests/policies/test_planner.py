@@ -215,6 +215,45 @@ class TestKernelMaths:
         want = np.concatenate([0.2 * np.arange(6), 1.0 + 0.125 + 0.05 * np.arange(15)])
         np.testing.assert_allclose(traj[0, 0], want, atol=1e-12)
 
+    def test_predict_keeps_a_car_on_its_profile_to_it(self) -> None:
+        # The profile of test_predict_follows_a_scaled_profile (4 m/s, then 1 m/s from 10 m),
+        # two cars at 2 m/s, pace ratio 0.5, 0.95 m before the drop, both braking at 5 m/s^2.
+        # Car 0 (acceleration given) is extrapolated to a stop: 2, 1.5, 1, 0.5, 0 m/s, so
+        # trapezoids of 0.175, 0.125, 0.075 and 0.025 m, 0.4 m in all. Car 1 (acceleration
+        # nan: it keeps to its scaled profile) holds 0.5 * 4 = 2 m/s to the drop and 0.5 m/s
+        # beyond it, as car 0 of that test.
+        profile = np.where(np.arange(200) < 100, 4.0, 1.0)[None, :]
+        traj = np.empty((1, 2, 21))
+        kernel.predict(np.array([[9.05, 9.05]]), np.array([[2.0, 2.0]]), np.full((1, 2), 4.0),
+                       np.full((1, 2), 0.5), np.array([0.0]), profile, 10.0, 20.0,
+                       np.array([[-5.0, np.nan]]), traj)
+        braked = np.concatenate([np.cumsum([0.0, 0.175, 0.125, 0.075, 0.025]), np.full(16, 0.4)])
+        np.testing.assert_allclose(traj[0, 0], braked, atol=1e-12)
+        kept = np.concatenate([0.2 * np.arange(6), 1.0 + 0.125 + 0.05 * np.arange(15)])
+        np.testing.assert_allclose(traj[0, 1], kept, atol=1e-12)
+
+    def test_span_of_a_car_on_the_line_and_of_one_off_it(self) -> None:
+        # A racing line at +0.3 m over the first half of a 20 m lap and -0.3 m over the second
+        # (10 samples a metre). Car 0 drives it, 0.1 m left of it now (err 0.1): at s = 5 m
+        # its span is 0.3 + 0.1 (1 - t / LINE_RELAX), a point; past LINE_RELAX (1 s) it is
+        # on the line; at s = 15 m, t = 0.25 s: -0.3 + 0.075. Car 1 does not (err nan): its
+        # offset now (0.2 m) and that moved at its lateral speed (-0.5 m/s) for up to
+        # LATERAL_PREVIEW (0.4 s): (0.1, 0.2) at 0.2 s, (0.0, 0.2) at 1 s.
+        line = np.where(np.arange(200) < 100, 0.3, -0.3)[None, :]
+        lo = hi = np.array([[0.0, 0.2]])
+        dd = np.array([[0.0, -0.5]])
+        err = np.array([[0.1, np.nan]])
+        assert kernel.LINE_RELAX == 1.0 and kernel.LATERAL_PREVIEW == 0.4
+
+        def span(car: int, t: float, s: float) -> tuple[float, float]:
+            return kernel._span(0, car, t, s, lo, hi, dd, err, line, 10.0, 20.0)
+
+        for t, s, want in [(0.0, 5.0, 0.4), (0.5, 5.0, 0.35), (2.0, 5.0, 0.3),
+                           (0.25, 15.0, -0.225)]:
+            np.testing.assert_allclose(span(0, t, s), (want, want), atol=1e-12)
+        np.testing.assert_allclose(span(1, 0.2, 5.0), (0.1, 0.2), atol=1e-12)
+        np.testing.assert_allclose(span(1, 1.0, 15.0), (0.0, 0.2), atol=1e-12)
+
     @staticmethod
     def _follow(lead_top: float, other_gap: float) -> float:
         """``_follow_speed`` in a left bend of constant curvature 0.5 1/m (20 m lap, 10
@@ -473,9 +512,44 @@ class TestRoom:
         lateral = np.array([[0.0, 0.5], [0.0, 0.5], [0.0, -0.5], [0.0, 0.2]])
         core.velocity[..., 0] = 3.0 * np.cos(psi) - lateral * np.sin(psi)
         core.velocity[..., 1] = 3.0 * np.sin(psi) + lateral * np.cos(psi)
-        gap, *_, drift, _, _, _ = driver._objects(core, 0, psi)
+        gap, *_, drift, _, _, _, _ = driver._objects(core, 0, psi, np.zeros(core.s.shape))
         np.testing.assert_allclose(gap[:, 1], [0.4, 1.0, 0.4, 0.4], atol=1e-9)
         np.testing.assert_allclose(drift[:, 1], [0.125, 0.5, -0.5, 0.0], atol=1e-9)
+
+    def test_a_car_on_the_racing_line_is_predicted_along_it(self) -> None:
+        # Car 1 on the planner's racing line in copies 0 and 2 (at the speed of its profile)
+        # and 0.3 m off it in copy 1, 1.5 m ahead in copies 0-1 and alongside (0.3 m ahead)
+        # in copy 2. Its distance from the line is smoothed over FIT_TIME (1 s) from
+        # 3 LINE_FIT: after one step (1/15 s) 0.3 (1 - 1/15) = 0.28 m, no car counts as
+        # driving the line; after 2 s 0.3 (14/15)^30 = 0.04 m < LINE_FIT in copies 0 and 2:
+        # copy 0's car is predicted along the line (its offset from it, 0, for the kernel's
+        # _span) and keeps to its profile (its acceleration nan for kernel.predict). Copy
+        # 1's stays 0.3 m off it; copy 2's is alongside, expected to leave room as before.
+        track, core, driver = self._pair([1.5, 1.5, 0.3])
+        lanes = driver.lanes
+        assert lanes is not None and core.dt == pytest.approx(1.0 / 15.0)
+        psi = track.heading_at(core.s)
+
+        def place() -> None:
+            line = np.interp(np.remainder(core.s[:, 1], lanes.length) * lanes.inv_ds,
+                             np.arange(lanes.offset.shape[1]), lanes.offset[0])
+            core.d[:, 1] = line + np.array([0.0, 0.3, 0.0])
+
+        place()
+        *_, err = driver._objects(core, 0, psi, driver._off_line(core, lanes))
+        assert np.isnan(err[:, 1]).all()
+        for _ in range(29):
+            place()
+            *_, err = driver._objects(core, 0, psi, driver._off_line(core, lanes))
+        np.testing.assert_allclose(driver._fit[:, 1], [0.3 * (14 / 15) ** 30, 0.3,
+                                                       0.3 * (14 / 15) ** 30], atol=1e-6)
+        np.testing.assert_allclose(err[0, 1], 0.0, atol=1e-9)
+        assert np.isnan(err[1:, 1]).all()
+        profile = np.interp(np.remainder(core.s[:, 1], lanes.length) * lanes.inv_ds,
+                            np.arange(lanes.speed.shape[1]), lanes.speed[0])
+        core.speed[:, 1] = profile
+        accel = driver._pace(core, 0, lanes)[2]
+        assert np.isnan(accel[0, 1]) and not np.isnan(accel[1, 1])
 
     def test_a_car_alongside_is_left_room(self) -> None:
         # grand_loop's longest straight is 1 m wide: the path is kept within +-(0.5 - 0.12).
