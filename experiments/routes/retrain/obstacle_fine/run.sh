@@ -4,9 +4,12 @@
 # on the 40 routes (20 three-lap races a route, object avoidance and head to bot, --json), on
 # the shipped tracks (the same), and alone on the shipped tracks (20 one-lap attempts against
 # racing_line). Logs and JSON beside this file.
+# "The shipped obstacle_generalist" is steps 1-6 as they were then (../earlier_policies.sh):
+# the shipped file now holds step 7, this run's seed 1.
 #   [SEEDS="0 1 2"] bash experiments/routes/retrain/obstacle_fine/run.sh
 set -u
 cd "$(dirname "$0")/../../../.."
+bash experiments/routes/retrain/earlier_policies.sh || exit 1
 export GIT_PYTHON_REFRESH=quiet
 out=experiments/routes/retrain/obstacle_fine
 routes=${ROUTES:-../shared/data/deepracer_tracks}
@@ -14,7 +17,7 @@ for seed in ${SEEDS:-0 1 2}; do
   name=obstacle_s$seed
   run=runs/obstacle_fine_s$seed
   if [ ! -f $run/policy.pt ]; then
-    h2h-racing train --config $out/obstacle_fine.toml --init policies/trained/obstacle_generalist/policy.pt \
+    h2h-racing train --config $out/obstacle_fine.toml --init runs/earlier/obstacle_generalist_steps1-6.pt \
       --seed $seed --iterations ${ITERATIONS:-400} --out $run --overwrite > $out/$name.train.log 2>&1
   fi
   # The shipped tracks first: the seed to ship is chosen on them, before its routes are read.
