@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# camera_generalist's step 10 (issue 36): the shipped camera_generalist (step 9) distilled on
+# from today's ppo_generalist (steps 1-6, seed 1; the config names it) with step 9's config
+# (camera_generalist/fullpace: the widened tracks, labels at the teacher's full speed), 60
+# iterations, seeds 0, 1, 2 one after another on one core, each measured right after its
+# training: the shipped tracks (against ppo_generalist), the 30 route-like tracks
+# (../ppo_step6/routelike.py), then the 40 real routes (20 one-lap attempts each). The seed is
+# chosen by choose_seed.py from the first two only. Logs and JSON beside this file.
+#   [SEEDS="0 1 2"] bash experiments/routes/retrain/camera_step10/run.sh
+set -u
+cd "$(dirname "$0")/../../../.."
+export GIT_PYTHON_REFRESH=quiet OMP_NUM_THREADS=1 MKL_NUM_THREADS=1  # one core
+out=experiments/routes/retrain/camera_step10
+routes=${ROUTES:-../shared/data/deepracer_tracks}
+start=policies/trained/camera_generalist/policy.pt
+for seed in ${SEEDS:-0 1 2}; do
+  name=camera10_s$seed
+  run=runs/camera_step10_s$seed
+  if [ ! -f $run/policy.pt ]; then
+    h2h-racing train --config camera_generalist/fullpace --init $start --seed $seed \
+      --iterations 60 --out $run --overwrite --no-progress > $out/$name.train.log 2>&1 \
+      || { echo "$(date +%T) $name train failed" >> $out/progress.log; continue; }
+    echo "$(date +%T) $name trained" >> $out/progress.log
+  fi
+  h2h-racing evaluate --policy $run/policy.pt --track all --episodes 20 --jobs 1 \
+    --baseline ppo_generalist --json $out/${name}_shipped.json > $out/${name}_shipped.txt 2>&1
+  python experiments/routes/retrain/ppo_step6/routelike.py --policy $run/policy.pt \
+    --json $out/${name}_routelike.json > $out/${name}_routelike.txt 2>&1
+  echo "$(date +%T) $name shipped and route-like tracks done" >> $out/progress.log
+  h2h-racing evaluate --policy $run/policy.pt --track $routes --episodes 20 --jobs 1 \
+    --baseline '' --json $out/$name.json > $out/$name.txt 2>&1
+  echo "$(date +%T) $name routes done" >> $out/progress.log
+done
