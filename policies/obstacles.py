@@ -38,6 +38,7 @@ import numpy as np
 import numpy.typing as npt
 
 from h2h_racing.policies.racing_line import GRAVITY
+from h2h_racing.track.lookup import wrap_arcs
 
 if TYPE_CHECKING:
     from h2h_racing.sim.core import RaceCore
@@ -120,8 +121,7 @@ def avoid_obstacles(core: RaceCore, car: int, s_target: FloatArray, offset: Floa
     s_car = core.s[:, car]
     half_body = 0.5 * params.length
     # Arc position of each box relative to the car, wrapped to (-L/2, L/2].
-    gap = core.obstacle_s - s_car[:, None]
-    gap -= length * np.floor(gap / length + 0.5)
+    gap = wrap_arcs(core.obstacle_s - s_car[:, None], length)
     half_len = 0.5 * cfg.obstacle_length
     # Where the body overlaps the box along the track, 5 cm to spare (relative to the car).
     front = gap - half_len - half_body - 0.05

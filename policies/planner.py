@@ -55,6 +55,7 @@ from h2h_racing.policies.racing_line import (GRAVITY, compute_race_line, line_cu
                                              speed_profile)
 from h2h_racing.policies.registry import Setting
 from h2h_racing.policies.steering import lookahead, pursuit_steer, to_action
+from h2h_racing.track.lookup import wrap_arcs
 from h2h_racing.track.shape import Track
 
 FloatArray = npt.NDArray[np.float64]
@@ -510,8 +511,7 @@ class Planner:
         offset from the racing line (``_off_line``), (E, N) [m]."""
         length = core.track.length
         car_len, car_wid = 0.5 * core.config.car.length, 0.5 * core.config.car.width
-        gap = core.s - core.s[:, car : car + 1]
-        gap -= length * np.floor(gap / length + 0.5)
+        gap = wrap_arcs(core.s - core.s[:, car : car + 1], length)
         valid = ~core.done
         valid[:, car] = False
         speed = np.where(core.racing, core.speed, 0.0)
@@ -535,8 +535,7 @@ class Planner:
         half_len = np.full(gap.shape, car_len)
         half_wid = np.full(gap.shape, car_wid)
         if core.num_bots:
-            bot_gap = core.bot_s - core.s[:, car : car + 1]
-            bot_gap -= length * np.floor(bot_gap / length + 0.5)
+            bot_gap = wrap_arcs(core.bot_s - core.s[:, car : car + 1], length)
             left, right = core.track.half_widths_at(core.bot_s)
             lane_d = core.bot_lane * 0.5 * np.where(core.bot_lane >= 0, left, right)
             gap = np.concatenate([gap, bot_gap], axis=1)

@@ -42,6 +42,7 @@ from h2h_racing.policies.steering import (  # re-exported: the drivers' shared h
     pursuit_steer,
     to_action,
 )
+from h2h_racing.track.lookup import wrap_arcs
 from h2h_racing.track.shape import Track
 
 FloatArray = npt.NDArray[np.float64]
@@ -287,8 +288,7 @@ class RacingLine:
         if core.num_bots:
             # Bots join the candidates (columns N..N+B-1), by their wrapped arc gap.
             length = core.track.length
-            bot_gap = core.bot_s - core.s[:, car : car + 1]
-            bot_gap -= length * np.floor(bot_gap / length + 0.5)
+            bot_gap = wrap_arcs(core.bot_s - core.s[:, car : car + 1], length)
             gap = np.concatenate([gap, bot_gap], axis=1)
             others = np.concatenate([others, np.ones(bot_gap.shape, dtype=bool)], axis=1)
             lateral_of = np.concatenate([core.d, core.bot_d], axis=1)

@@ -33,6 +33,7 @@ import torch
 from tensordict import TensorDict
 
 from h2h_racing.sensors.state import MOTION_FEATURES, state_observation
+from h2h_racing.track.lookup import wrap_arcs
 
 ACTOR_GROUPS: dict[str, tuple[str, ...]] = {
     "state": ("policy",), "camera": ("policy", "camera"), "camera_only": ("camera", "motion"),
@@ -79,8 +80,7 @@ class VecEnvObservations:
         core, learners = self.core, self.learners
         e, n = core.num_envs, core.num_cars
         length = core.lengths[:, None, None]
-        gap = core.s[:, None, :] - core.s[:, :learners, None]
-        gap = gap - length * np.floor(gap / length + 0.5)
+        gap = wrap_arcs(core.s[:, None, :] - core.s[:, :learners, None], length)
         heading = np.empty_like(core.s)
         for rows, view in core.track_views():
             heading[rows] = view.track.heading_at(core.s[rows])

@@ -112,3 +112,10 @@ def wrap_arc(delta_s: float, length: float) -> float:  # pragma: no cover
     """Wrap an arc-position difference into [-length/2, length/2) (9.5 m ahead on a 10 m lap
     is 0.5 m behind)."""
     return delta_s - length * math.floor((delta_s + 0.5 * length) / length)
+
+
+def wrap_arcs(delta_s: npt.ArrayLike, length: npt.ArrayLike) -> FloatArray:
+    """``wrap_arc`` for arrays (numpy broadcasting): arc-position differences wrapped into
+    [-length/2, length/2), e.g. the gap from one car to every other along the track."""
+    delta_s = np.asarray(delta_s, dtype=np.float64)
+    return delta_s - length * np.floor(delta_s / length + 0.5)
