@@ -76,9 +76,13 @@ the shipped tracks and 20 random ones (10 starts each, pure pursuit tracking): 0
 tracks unclean, 0.15 one, 0.25 none, at 3.2 % off racing_line's laps against 4 %."""
 ACCEL_FACTOR = 1.0
 """Share of the car's acceleration used in the speed profiles (the car's own limit)."""
-FOLLOW_COST = 0.2
+FOLLOW_COST = 0.05
 """Cost of a candidate that must slow behind a car, on top of its time [s]: following gives
-up the pace margin that a free line keeps."""
+up the pace margin that a free line keeps. Once a car on the racing line was predicted
+braking to its bend's speed, not to a stop (``ON_PROFILE``), a follow candidate's time became
+a fair one, and a larger cost sent the planner onto free side lanes slower than following:
+behind `racing_line` on the tuning tracks (200 races) 75, 80, 86, 80, 70 and 64 won at 0,
+0.03, 0.05, 0.07, 0.1 and 0.2 (experiments/planner, item 16)."""
 SWITCH_COST = 0.05
 """Cost of leaving the path being tracked for another lane [s] (against dithering)."""
 SWITCH_CURVATURE = 1.0
