@@ -465,7 +465,9 @@ class Planner:
         A car's pace ratio is its speed over the planner's racing-line profile where that
         profile is below top speed (in and near corners), smoothed over ``PACE_TIME``: a
         ``racing_line`` at grip 0.6 settles near ``sqrt(0.6 / grip_factor)``. It starts at 1
-        (as fast as the planner). Bots keep their own constant speed.
+        (as fast as the planner). A car that drives the racing line (``_fit``) within
+        ``ON_PROFILE`` of that scaled profile's speed gets a nan acceleration: ``predict``
+        keeps it to the profile. Bots keep their own constant speed.
         """
         profile = np.interp(np.remainder(core.s, lanes.length) * lanes.inv_ds,
                             np.arange(lanes.speed.shape[1] + 1),
