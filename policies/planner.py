@@ -193,6 +193,12 @@ class Lanes:
                     self.inside_lane):
             arr.flags.writeable = False
 
+    def at(self, row: FloatArray, s: FloatArray) -> FloatArray:
+        """``row`` (one lane's table, (K,)) at arc positions ``s`` (any shape, any real
+        number) [m]: periodic linear interpolation over the lap."""
+        return np.interp(np.remainder(s, self.length) * self.inv_ds, np.arange(len(row) + 1),
+                         np.append(row, row[0]))
+
 
 def _smooth(d: FloatArray, lo: FloatArray, hi: FloatArray, width: int = 5,
             passes: int = 3) -> FloatArray:
@@ -469,9 +475,7 @@ class Planner:
         ``ON_PROFILE`` of that scaled profile's speed gets a nan acceleration: ``predict``
         keeps it to the profile. Bots keep their own constant speed.
         """
-        profile = np.interp(np.remainder(core.s, lanes.length) * lanes.inv_ds,
-                            np.arange(lanes.speed.shape[1] + 1),
-                            np.append(lanes.speed[0], lanes.speed[0, 0]))
+        profile = lanes.at(lanes.speed[0], core.s)
         cornering = core.racing & (profile < 0.95 * core.config.max_speed)
         rate = min(1.0, core.dt / PACE_TIME)
         seen = np.clip(core.speed / np.maximum(profile, 0.1), 0.3, 1.5)
@@ -503,10 +507,7 @@ class Planner:
         """Every car's offset from the racing line, (E, N) [m]; updates how far each keeps
         from it on average (``_fit``, smoothed over ``FIT_TIME``), which says whether it
         drives the line (under ``LINE_FIT``)."""
-        line = np.interp(np.remainder(core.s, lanes.length) * lanes.inv_ds,
-                         np.arange(lanes.offset.shape[1] + 1),
-                         np.append(lanes.offset[0], lanes.offset[0, 0]))
-        off_line = core.d - line
+        off_line = core.d - lanes.at(lanes.offset[0], core.s)
         self._fit += min(1.0, core.dt / FIT_TIME) * (np.abs(off_line) - self._fit)
         return off_line
 
