@@ -29,6 +29,9 @@ from pathlib import Path
 HERE = Path(__file__).parent
 PPO = HERE.parent / "ppo_step6"
 SEEDS = (0, 1, 2)
+NAME = "camera10"
+"""The files' prefix: NAME_sN_shipped.json, NAME_sN_routelike.json (step 11 reuses this rule)."""
+DESCRIPTION = __doc__.split("\n\n")[0]
 LAPS_BAR = 0.95
 PACE_BAR = 10.0
 """Issue 36's camera bar: laps share, and mean lap over ppo_generalist's [%]."""
@@ -55,13 +58,13 @@ def figures(path: Path, teacher: dict[str, float], what: str) -> list[tuple[floa
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(description=DESCRIPTION)
     parser.parse_args(argv)
     shipped_ppo = teacher_laps(PPO / "ppo6_s1_shipped.json")
     routelike_ppo = teacher_laps(PPO / "ppo6_s1_routelike.json")
     scores: dict[int, tuple[int, int, float]] = {}
     for seed in SEEDS:
-        name = f"camera10_s{seed}"
+        name = f"{NAME}_s{seed}"
         paths = (HERE / f"{name}_shipped.json", HERE / f"{name}_routelike.json")
         missing = [p.name for p in paths if not p.exists()]
         if missing:
@@ -87,7 +90,7 @@ def main(argv: list[str] | None = None) -> None:
     most_on_bar = max(scores[seed][1] for seed in kept)
     kept = [seed for seed in kept if scores[seed][1] == most_on_bar]
     chosen = min(kept, key=lambda seed: scores[seed][2])
-    print(f"chosen: camera10_s{chosen}")
+    print(f"chosen: {NAME}_s{chosen}")
 
 
 if __name__ == "__main__":

@@ -1,7 +1,8 @@
-"""camera_generalist's step 10 seed rule (`experiments/routes/retrain/camera_step10/
-choose_seed.py`) on hand-made `evaluate --json` files: shipped tracks at 100 % first, then the
-most route-like tracks on the camera bar (>= 95 % laps and within 10 % of ppo_generalist's
-laps), then the fastest against ppo_generalist over both sets."""
+"""camera_generalist's seed rule of steps 10 and 11 (`experiments/routes/retrain/camera_step10/
+choose_seed.py`, which step 11's `choose_seed.py` runs on its own files) on hand-made
+`evaluate --json` files: shipped tracks at 100 % first, then the most route-like tracks on the
+camera bar (>= 95 % laps and within 10 % of ppo_generalist's laps), then the fastest against
+ppo_generalist over both sets."""
 
 from __future__ import annotations
 
@@ -11,25 +12,27 @@ from pathlib import Path
 
 import pytest
 
-SCRIPT = (Path(__file__).resolve().parents[2] / "experiments" / "routes" / "retrain"
-          / "camera_step10" / "choose_seed.py")
+RETRAIN = Path(__file__).resolve().parents[2] / "experiments" / "routes" / "retrain"
+STEPS = {"camera_step10": "camera10", "camera_step11": "camera11"}  # folder: files' prefix
 SHIPPED = ("oval", "technical")  # two shipped tracks, ppo_generalist 10 s on each
 ROUTELIKE = ("routelike_00", "routelike_01")  # two route-like tracks, ppo_generalist 20 s
 
 
-@pytest.fixture()
-def rule(tmp_path, monkeypatch):
-    spec = importlib.util.spec_from_file_location("step10_choose_seed", SCRIPT)
+@pytest.fixture(params=sorted(STEPS))
+def rule(request, tmp_path, monkeypatch):
+    step = request.param
+    spec = importlib.util.spec_from_file_location(f"{step}_choose_seed",
+                                                  RETRAIN / step / "choose_seed.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    here, ppo = tmp_path / "camera_step10", tmp_path / "ppo_step6"
+    here, ppo = tmp_path / step, tmp_path / "ppo_step6"
     here.mkdir()
     ppo.mkdir()
     monkeypatch.setattr(module, "HERE", here)
     monkeypatch.setattr(module, "PPO", ppo)
     write(ppo / "ppo6_s1_shipped.json", {t: (1.0, 10.0) for t in SHIPPED})
     write(ppo / "ppo6_s1_routelike.json", {t: (1.0, 20.0) for t in ROUTELIKE})
-    return module, here
+    return module, here, STEPS[step]
 
 
 def write(path: Path, rows: dict[str, tuple[float, float | None]], episodes: int = 20) -> None:
@@ -41,8 +44,9 @@ def write(path: Path, rows: dict[str, tuple[float, float | None]], episodes: int
 
 
 def seed(here: Path, n: int, shipped: dict, routelike: dict) -> None:
-    write(here / f"camera10_s{n}_shipped.json", shipped)
-    write(here / f"camera10_s{n}_routelike.json", routelike)
+    prefix = STEPS[here.name]
+    write(here / f"{prefix}_s{n}_shipped.json", shipped)
+    write(here / f"{prefix}_s{n}_routelike.json", routelike)
 
 
 def chosen(module, capsys) -> str:
@@ -51,7 +55,7 @@ def chosen(module, capsys) -> str:
 
 
 def test_laps_then_the_bar_then_pace(rule, capsys):
-    module, here = rule
+    module, here, prefix = rule
     full = {t: (1.0, 10.0) for t in SHIPPED}
     # Seed 0: the fastest (-10 %) but 95 % on one shipped track: out at 1.
     seed(here, 0, {"oval": (0.95, 9.0), "technical": (1.0, 9.0)},
@@ -62,26 +66,26 @@ def test_laps_then_the_bar_then_pace(rule, capsys):
          {"routelike_00": (1.0, 22.2), "routelike_01": (1.0, 18.0)})
     # Seed 2: both route-like tracks on the bar (95 % laps and +10.0 % count): chosen.
     seed(here, 2, full, {"routelike_00": (0.95, 22.0), "routelike_01": (1.0, 20.0)})
-    assert chosen(module, capsys) == "chosen: camera10_s2"
+    assert chosen(module, capsys) == f"chosen: {prefix}_s2"
 
 
 def test_among_equals_the_lowest_mean_over_both_sets_wins(rule, capsys):
-    module, here = rule
+    module, here, prefix = rule
     # Seed 0: +10 %, +10 % shipped, -5 %, -5 % route-like: mean +2.5 %.
     seed(here, 0, {t: (1.0, 11.0) for t in SHIPPED}, {t: (1.0, 19.0) for t in ROUTELIKE})
     # Seed 1: 0 %, 0 %, +4 %, +4 %: +2.0 %, the lower.
     seed(here, 1, {t: (1.0, 10.0) for t in SHIPPED}, {t: (1.0, 20.8) for t in ROUTELIKE})
-    assert chosen(module, capsys) == "chosen: camera10_s1"
+    assert chosen(module, capsys) == f"chosen: {prefix}_s1"
 
 
 def test_a_missing_seed_is_named_and_a_wrong_file_refused(rule, capsys):
-    module, here = rule
+    module, here, prefix = rule
     seed(here, 1, {t: (1.0, 10.0) for t in SHIPPED}, {t: (1.0, 20.0) for t in ROUTELIKE})
     module.main([])
     out = capsys.readouterr().out
-    assert "camera10_s0: no camera10_s0_shipped.json, camera10_s0_routelike.json" in out
-    assert out.splitlines()[-1] == "chosen: camera10_s1"
+    assert f"{prefix}_s0: no {prefix}_s0_shipped.json, {prefix}_s0_routelike.json" in out
+    assert out.splitlines()[-1] == f"chosen: {prefix}_s1"
     # 10 attempts instead of 20: refused, naming the file and what to do.
-    write(here / "camera10_s1_routelike.json", {t: (1.0, 20.0) for t in ROUTELIKE}, episodes=10)
+    write(here / f"{prefix}_s1_routelike.json", {t: (1.0, 20.0) for t in ROUTELIKE}, episodes=10)
     with pytest.raises(SystemExit, match="expected a time trial of 20 attempts.*run.sh"):
         module.main([])
