@@ -15,8 +15,9 @@ ROOT = Path(__file__).resolve().parents[2]
 RETRAIN = ROOT / "experiments/routes/retrain"
 SCRIPT = RETRAIN / "earlier_policies.sh"
 SCRIPTS = [RETRAIN / "run.sh", RETRAIN / "camera_fullpace/run.sh",
-           RETRAIN / "obstacle_fine/run.sh", RETRAIN / "obstacle_fine/why_slow/run.sh"]
-COMMITS = {"d7ebd43", "322d217", "5b7da20", "64c7842"}
+           RETRAIN / "obstacle_fine/run.sh", RETRAIN / "obstacle_fine/why_slow/run.sh",
+           RETRAIN / "camera_step10/run.sh", RETRAIN / "camera_step11/run.sh"]
+COMMITS = {"d7ebd43", "322d217", "5b7da20", "64c7842", "259c59e"}
 
 
 def train_commands(path: Path) -> list[str]:
@@ -61,10 +62,12 @@ def test_earlier_policies_written_and_checked(tmp_path):
     done = subprocess.run(["bash", str(SCRIPT)], env=env, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     files = sorted(p.name for p in tmp_path.iterdir())
-    assert files == ["camera_generalist_steps1-7.pt", "obstacle_generalist_steps1-6.pt",
+    assert files == ["camera_generalist_steps1-7.pt", "camera_generalist_steps1-9.pt",
+                     "obstacle_generalist_steps1-6.pt",
                      "ppo_generalist_steps1-2.pt", "ppo_generalist_steps1-4.pt"]
     observations = {name: load_policy_payload(tmp_path / name)["observations"] for name in files}
     assert observations["camera_generalist_steps1-7.pt"] == "camera_only"
+    assert observations["camera_generalist_steps1-9.pt"] == "camera_only"
     assert observations["ppo_generalist_steps1-2.pt"] == "state"
     # None is today's shipped file: each is an earlier step.
     digest = {name: hashlib.sha256((tmp_path / name).read_bytes()).hexdigest() for name in files}

@@ -10,6 +10,8 @@
 #                                    camera_generalist's teacher in steps 8-9 (camera_newteacher/,
 #                                    camera_fullpace/)
 #   camera_generalist_steps1-7.pt    (5b7da20) the start of camera_generalist's step 8
+#   camera_generalist_steps1-9.pt    (259c59e) the start of its steps 10 and 11 (camera_step10/,
+#                                    camera_step11/)
 #   obstacle_generalist_steps1-6.pt  (64c7842) the start of obstacle/ and obstacle_fine/ (step 7)
 #   bash experiments/routes/retrain/earlier_policies.sh     # needs the repository's history
 # (EARLIER_DIR=FOLDER writes them there instead: the tests' copy)
@@ -38,5 +40,6 @@ done <<'EOF'
 ppo_generalist_steps1-2 d7ebd43 policies/trained/ppo_generalist/policy.pt c19dce2f46571fb306c10583c58d30a1414968eebff6bcb43f93f34004b757a9
 ppo_generalist_steps1-4 322d217 policies/trained/ppo_generalist/policy.pt 1c5b05f3d521ee5ba919f4c156ce912f99c9d965d343c44ef3c7f887fe8e41ba
 camera_generalist_steps1-7 5b7da20 policies/trained/camera_generalist/policy.pt 8df515800adc91e1e580b848d18947d430822e16d7d01ddc36e135dabfb6d2f6
+camera_generalist_steps1-9 259c59e policies/trained/camera_generalist/policy.pt e2921eb12dd4e329d11fc14d5a3df03e82cc00e7f8e54d24884d0f2c8d7c1694
 obstacle_generalist_steps1-6 64c7842 policies/trained/obstacle_generalist/policy.pt 3e1151fbf0f5b17387d2328e80b60b3c825000a39dddf730a0705d80784e3f7f
 EOF

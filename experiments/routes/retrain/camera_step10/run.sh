@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# camera_generalist's step 10 (issue 36): the shipped camera_generalist (step 9) distilled on
+# camera_generalist's step 10 (issue 36): camera_generalist's steps 1-9 (shipped until step 11;
+# ../earlier_policies.sh writes it from git, checked by SHA-256) distilled on
 # from today's ppo_generalist (steps 1-6, seed 1; the config names it) with step 9's config
 # (camera_generalist/fullpace: the widened tracks, labels at the teacher's full speed), 60
 # iterations, seeds 0, 1, 2 one after another on one core, each measured right after its
@@ -12,13 +13,15 @@ cd "$(dirname "$0")/../../../.."
 export GIT_PYTHON_REFRESH=quiet OMP_NUM_THREADS=1 MKL_NUM_THREADS=1  # one core
 out=experiments/routes/retrain/camera_step10
 routes=${ROUTES:-../shared/data/deepracer_tracks}
-start=policies/trained/camera_generalist/policy.pt
+# The shipped file holds step 11 now: start from steps 1-9 as they were.
+bash experiments/routes/retrain/earlier_policies.sh || exit 1
 for seed in ${SEEDS:-0 1 2}; do
   name=camera10_s$seed
   run=runs/camera_step10_s$seed
   if [ ! -f $run/policy.pt ]; then
-    h2h-racing train --config camera_generalist/fullpace --init $start --seed $seed \
-      --iterations 60 --out $run --overwrite --no-progress > $out/$name.train.log 2>&1 \
+    h2h-racing train --config camera_generalist/fullpace \
+      --init runs/earlier/camera_generalist_steps1-9.pt --seed $seed --iterations 60 \
+      --out $run --overwrite --no-progress > $out/$name.train.log 2>&1 \
       || { echo "$(date +%T) $name train failed" >> $out/progress.log; continue; }
     echo "$(date +%T) $name trained" >> $out/progress.log
   fi
