@@ -14,6 +14,7 @@ import numpy as np
 from h2h_racing.track.shape import FloatArray, Track
 from h2h_racing.track.generator import random_track
 from h2h_racing.track.circuits import random_circuit
+from h2h_racing.training.track_funnels import funnel_track
 
 
 def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
@@ -24,7 +25,9 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
                           tight_share: float = 0.0, circuit_share: float = 0.0,
                           circuit_corners: str | tuple[str, ...] = "arcs",
                           narrowest: float = 0.76, widest: float = 1.07,
-                          waypoint_gap: tuple[float, float] = (0.05, 0.05)) -> Track:
+                          waypoint_gap: tuple[float, float] = (0.05, 0.05),
+                          funnel_share: float = 0.0,
+                          funnel: dict[str, tuple[float, float]] | None = None) -> Track:
     """A random closed track for training: lap length drawn in ``length`` [m], width in the
     catalogue's range [0.76, 1.07] m (its low end ``narrowest``): constant (drawn uniformly)
     or, on a ``varying_share`` of the tracks, varying along the lap between two widths drawn
@@ -51,8 +54,20 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
     ``waypoint_gap`` ``(low, high)`` [m] other than the generator's own 5 cm re-draws every
     track's centre line through waypoints spaced as DeepRacer's files are (0.06-0.98 m apart,
     evenly on most routes, unevenly on some): each track draws two gaps in the range, and its
-    waypoints are that far apart, each gap drawn uniformly between the two (``resample``)."""
+    waypoints are that far apart, each gap drawn uniformly between the two (``resample``).
+
+    A ``funnel_share`` of the tracks are funnel tracks (``funnel_track``): wide, narrowing
+    sharply into a tight bend; ``funnel`` holds its ``entry``, ``width``, ``ramp`` and
+    ``radius`` ranges (``FUNNEL_DEFAULTS`` for those not given), the lap in ``length``, the
+    waypoint gaps at most ``FUNNEL_GAP``."""
     # No draw without the option: the same seed gives the same tracks as before it.
+    if funnel_share > 0 and rng.random() < funnel_share:
+        spec = _retried(lambda: funnel_track(rng, length=length,
+                                             **{**FUNNEL_DEFAULTS, **(funnel or {})}))
+        # Waypoints 0.8 m apart would round a 0.5 m bend off to 0.9-1.5 m: funnel routes put
+        # theirs closer (FUNNEL_GAP).
+        gap = (min(waypoint_gap[0], FUNNEL_GAP), min(waypoint_gap[1], FUNNEL_GAP))
+        return _finished(rng, spec, reverse_share, gap)
     if circuit_share > 0 and rng.random() < circuit_share:
         styles = (circuit_corners,) if isinstance(circuit_corners, str) else circuit_corners
         # The width is drawn first, the style after: the same seed gives the same circuits as
@@ -111,6 +126,21 @@ def _retried(draw: Callable[[], Any]) -> Any:
     return draw()
 
 
+FUNNEL_DEFAULTS: dict[str, tuple[float, float]] = {
+    "entry": (1.2, 1.6), "width": (0.6, 0.75), "ramp": (1.5, 2.5), "radius": (0.5, 0.9)}
+"""``funnel_track``'s ranges [m] when ``random_training_track`` is not given them
+(``ProceduralTracks``' ``funnel_entry``, ``funnel_width``, ``funnel_ramp`` and
+``funnel_radius`` defaults)."""
+FUNNEL_GAP = 0.1
+"""Widest waypoint gap of a funnel track [m] (``waypoint_gap`` is capped to it): DeepRacer's
+``Tokyo_Training_track``, ``Bowtie_track`` and ``Mexico_track`` put theirs 0.11 m apart
+(median). Through waypoints up to 0.3 m apart a 0.51-0.67 m bend measured 0.75-0.92 m
+(``Track.curvature_at``, 8 tracks), up to 0.15 m apart 0.61-0.77 m, 0.1 m apart 0.58-0.74 m."""
+FUNNEL_BOUNDS: dict[str, tuple[float, float]] = {
+    "entry": (0.6, 2.5), "width": (0.5, 1.5), "ramp": (0.5, 10.0), "radius": (0.4, 3.0)}
+"""Bounds of the ``[procedural] funnel_*`` ranges [m]: widths as ``narrowest`` and
+``widest`` allow, ramps from 0.5 m (sharper folds the border) and bends from 0.4 m
+(``min_radius``'s floor)."""
 LONG_WIDEST = 1.07
 """Widest ``"long"`` circuit [m]: the width of most DeepRacer routes."""
 TIGHT_LENGTH = (14.0, 22.0)
@@ -254,6 +284,22 @@ class ProceduralTracks:
     circuit_corners: tuple[str, ...] = ("arcs",)
     """How the circuits are drawn (``CIRCUIT_STYLES``: ``"arcs"``, ``"bspline"``,
     ``"hairpins"``, ``"long"``); one of them drawn per circuit when several are given."""
+    funnel_share: float = 0.0
+    """Share of tracks that are funnel tracks (``funnel_track``): ``funnel_entry`` wide,
+    narrowing within ``funnel_ramp`` into a ``funnel_radius`` bend ``funnel_width`` wide, as
+    ``Tokyo_Training_track`` (1.44 to 0.70 m within 2 m into a 0.5-0.6 m hairpin) and
+    ``Bowtie_track``'s waists (0.61 m in 0.85-0.95 m bends) do; the other tracks' width
+    changes by at most 4.5 % within 2 m. 0 draws nothing: the same seed gives the same tracks
+    as before the option. Their lap is drawn in ``length``; no chicanes, no varying width."""
+    funnel_entry: tuple[float, float] = FUNNEL_DEFAULTS["entry"]
+    """``(low, high)`` width of a funnel track away from its corners [m]."""
+    funnel_width: tuple[float, float] = FUNNEL_DEFAULTS["width"]
+    """``(low, high)`` width of a funnel track through its tight bend [m]."""
+    funnel_ramp: tuple[float, float] = FUNNEL_DEFAULTS["ramp"]
+    """``(low, high)`` arc length over which a funnel track's width falls from
+    ``funnel_entry`` to ``funnel_width`` before the bend, and rises again after it [m]."""
+    funnel_radius: tuple[float, float] = FUNNEL_DEFAULTS["radius"]
+    """``(low, high)`` radius of a funnel track's tight bend, its tightest corner [m]."""
 
     def __post_init__(self) -> None:
         for name, unit in (("every", "iterations"), ("tracks", "random tracks raced at once")):
@@ -288,13 +334,38 @@ class ProceduralTracks:
         if not 0.02 <= gap_low <= gap_high <= 1.0:
             raise ValueError(f"[procedural] waypoint_gap must be (low, high) with 0.02 <= low "
                              f"<= high <= 1 m, got {self.waypoint_gap!r}")
+        self._check_funnel()
         if not 0.4 <= self.min_radius:
             raise ValueError(f"[procedural] min_radius must be >= 0.4 m (above the narrowest "
                              f"half-width, 0.38 m), got {self.min_radius!r}")
+
+    def _check_funnel(self) -> None:
+        """The funnel ranges: ``(low, high)`` pairs, each within its bounds, the narrow width
+        under the entry's and the bend wide enough for its width (radius >= 0.6 x width,
+        ``RADIUS_TO_HALF_WIDTH``)."""
+        if not 0.0 <= self.funnel_share <= 1.0:
+            raise ValueError(f"[procedural] funnel_share must be in [0, 1], got "
+                             f"{self.funnel_share!r}")
+        for name, (floor, top) in FUNNEL_BOUNDS.items():
+            pair = getattr(self, f"funnel_{name}")
+            if not (isinstance(pair, tuple) and len(pair) == 2
+                    and floor <= pair[0] <= pair[1] <= top):
+                raise ValueError(f"[procedural] funnel_{name} must be (low, high) with {floor} "
+                                 f"<= low <= high <= {top} [m], got {pair!r}")
+        if not self.funnel_width[1] < self.funnel_entry[0]:
+            raise ValueError(f"[procedural] funnel_width {self.funnel_width!r} must stay under "
+                             f"funnel_entry's low end ({self.funnel_entry[0]} m): a funnel "
+                             f"narrows; lower funnel_width or raise funnel_entry")
+        if not self.funnel_radius[0] >= 0.6 * self.funnel_width[1]:
+            raise ValueError(f"[procedural] funnel_radius's low end must be at least 0.6 x "
+                             f"funnel_width's high end ({0.6 * self.funnel_width[1]:.3f} m: "
+                             f"else the bend's inner border folds), got {self.funnel_radius!r}")
 
     def draw(self, rng: np.random.Generator) -> Track:
         """A random training track drawn from ``rng`` with these settings."""
         return random_training_track(rng, self.varying_share, self.min_radius, self.length,
                                      self.reverse_share, self.chicanes, self.tight_share,
                                      self.circuit_share, self.circuit_corners, self.narrowest,
-                                     self.widest, self.waypoint_gap)
+                                     self.widest, self.waypoint_gap, self.funnel_share,
+                                     {"entry": self.funnel_entry, "width": self.funnel_width,
+                                      "ramp": self.funnel_ramp, "radius": self.funnel_radius})
