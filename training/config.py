@@ -467,4 +467,5 @@ class TrainConfig:
             track=[track] * self.procedural.tracks, reward_function=self.reward_function,
             simtrace=log, reward_time_limit=self.reward_time_limit,
             simtrace_envs=max(self.simtrace_envs, 1), simtrace_episodes=self.simtrace_episodes,
-            expert=self.imitation.expert(), race_types=self.race.race_types)
+            expert=self.imitation.expert(), race_types=self.race.race_types,
+            tight_boxes=self.race.tight_boxes())

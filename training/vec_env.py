@@ -76,6 +76,7 @@ from h2h_racing.training.vec_env_observe import (  # noqa: E402
     VecEnvObservations,
 )
 from h2h_racing.training.vec_env_starts import VecEnvStarts  # noqa: E402
+from h2h_racing.training.tight_boxes import TightBoxes  # noqa: E402
 
 __all__ = ["ACTOR_GROUPS", "OBSERVATIONS", "PoolOpponent", "RacingVecEnv"]
 
@@ -122,6 +123,9 @@ class RacingVecEnv(VecEnvObservations, VecEnvStarts, VecEnv):
         race_types: Race types that take turns at each ``set_track`` (a procedural run's new
             track): the k-th call races ``race_types[k % len]`` with that race type's default
             boxes and bots; empty keeps ``config.race_type``.
+        tight_boxes: Training's tight boxes (``[race] tight_box_share``): a share of each
+            reset's box layouts get one box moved where the room beside it is tight
+            (``h2h_racing.training.tight_boxes``); None (the default) places them as the env.
 
     Raises:
         ValueError: For bad arguments, for a DeepRacer reward function or simtrace logs with
@@ -141,7 +145,8 @@ class RacingVecEnv(VecEnvObservations, VecEnvStarts, VecEnv):
                  simtrace: str | None = None, simtrace_envs: int = 2,
                  simtrace_episodes: int = 20,
                  expert: str | Any | None = None, race_types: tuple[str, ...] = (),
-                 reward_time_limit: float | None = None) -> None:
+                 reward_time_limit: float | None = None,
+                 tight_boxes: TightBoxes | None = None) -> None:
         n = config.num_cars
         learners = n if learners is None else learners
         if not isinstance(learners, int) or not 1 <= learners <= n:
@@ -196,6 +201,7 @@ class RacingVecEnv(VecEnvObservations, VecEnvStarts, VecEnv):
                                                                      self._seeds)
         self._experts = None if expert is None else TrackDrivers(expert, self.core, self._seeds)
         self.random_starts = random_starts
+        self.tight_boxes = tight_boxes
         self.core.seed(seed)
         every = np.ones(num_envs, dtype=bool)
         self.core.reset(start=self._starts(every))

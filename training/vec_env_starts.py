@@ -17,6 +17,10 @@ or right behind one (``BOX_CLEAR_BEHIND``, ``BOX_CLEAR_AHEAD``) is reset again w
 and new boxes (up to ``START_TRIES`` times, then on the start line, which the core keeps
 clear): otherwise about one episode in six would start in a crash (speedway, 6 boxes).
 
+With ``tight_boxes`` (``[race] tight_box_share``) a share of the reset copies then get one
+box moved to a tight place of the lap (``h2h_racing.training.tight_boxes``), before the starts
+are checked.
+
 With several tracks each copy's start is drawn by its track's generator (the copies of a track
 in order), as a VecEnv of that track alone draws them.
 """
@@ -25,6 +29,8 @@ from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
+
+from h2h_racing.training.tight_boxes import tight_places, tighten
 
 BOX_CLEAR_BEHIND = 0.6
 """A box whose centre is less than this behind a car's centre at its start blocks that start
@@ -47,12 +53,37 @@ class VecEnvStarts:
         core = self.core
         if not core.num_obstacles:
             return
+        self._tighten_boxes(mask)
         for tries in range(START_TRIES + 1):
             blocked = mask & self._blocked_starts()
             if not blocked.any():
                 return
             start = self._starts(blocked) if tries < START_TRIES else np.zeros(blocked.sum())
             core.reset_envs(blocked, start=start)
+            self._tighten_boxes(blocked)
+
+    def _tighten_boxes(self, mask: npt.NDArray[np.bool_]) -> None:
+        """Move a box of a ``tight_boxes.share`` of the copies in ``mask`` (just reset) to a
+        tight place of their track (``h2h_racing.training.tight_boxes``), each track's copies
+        drawn by its own generator; nothing, and no draw, without ``tight_boxes`` or at share 0."""
+        settings = getattr(self, "tight_boxes", None)
+        if settings is None or settings.share <= 0:
+            return
+        core, cfg = self.core, self.core.config
+        grid = cfg.grid_spacing * (core.num_cars - 1) + cfg.car.length
+        cache = self.__dict__.setdefault("_tight_places", {})
+        for k in np.unique(core.track_index[mask]).tolist():
+            rows = np.flatnonzero(mask & (core.track_index == k))
+            track = core.tracks[k]
+            # Keyed by the track object: set_tracks replaces it when the track changes.
+            if k not in cache or cache[k][0] is not track:
+                cache[k] = (track, tight_places(track, settings.room, cfg.obstacle_length,
+                                                cfg.obstacle_width, grid))
+            s, lane, moved = tighten(core.obstacle_s[rows], core.obstacle_lane[rows],
+                                     cache[k][1], core.rngs[k], settings.share,
+                                     cfg.obstacle_min_gap)
+            if moved:
+                core.move_obstacles(rows, s, lane)
 
     def _blocked_starts(self) -> npt.NDArray[np.bool_]:
         """Copies with a box centre within ``BOX_CLEAR_BEHIND`` behind or ``BOX_CLEAR_AHEAD``

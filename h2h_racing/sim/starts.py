@@ -137,6 +137,29 @@ class CoreSpawn:
         if self.num_bots:
             self._spawn_bots(k, rows, line[:, 0])
 
+    def move_obstacles(self, rows: IntArray, s: FloatArray, lane: FloatArray) -> None:
+        """Put the boxes of the copies ``rows`` (R,) at arc positions ``s`` (R, K) [m] on lanes
+        ``lane`` (R, K) (+1 left, -1 right) and write them into pymunk. For training's tight
+        boxes (``h2h_racing.training.tight_boxes``), which move a box after a reset placed it;
+        the env's own placement never calls it."""
+        rows = np.asarray(rows, dtype=np.int64)
+        s = np.asarray(s, dtype=np.float64)
+        lane = np.asarray(lane, dtype=np.float64)
+        for k in np.unique(self.track_index[rows]).tolist():
+            pick = self.track_index[rows] == k
+            track, at = self.tracks[k], rows[pick]
+            obs_s = np.mod(s[pick], track.length)
+            obs_d = spawn.lane_offset(track, obs_s, lane[pick])
+            opos, oyaw = spawn.poses_on_track(track, obs_s, obs_d)
+            self.obstacle_s[at] = obs_s
+            self.obstacle_lane[at] = lane[pick]
+            self.obstacle_d[at] = obs_d
+            self.obstacle_position[at] = opos
+            self.obstacle_yaw[at] = oyaw
+        mask = np.zeros(self.num_envs, dtype=bool)
+        mask[rows] = True
+        self._sync_physics(mask)
+
     def _spawn_bots(self, k: int, rows: IntArray, line: FloatArray) -> None:
         """Lay out the bots of the copies ``rows`` of track ``k`` from their start points
         ``line`` (M,)."""
