@@ -118,7 +118,7 @@ def test_race_table_settings() -> None:
     config = TrainConfig.from_dict({"track": "oval", "num_envs": 4,
                                     "race": {"race_type": "object_avoidance",
                                              "tight_box_share": 0.5}})
-    assert config.make_env().tight_boxes == TightBoxes(0.5, (0.21, 0.25))
+    assert config.make_env().tight_boxes == TightBoxes(0.5, (0.21, 0.24))
     with pytest.raises(ValueError, match=r"\[race\].tight_box_share must be a number in"):
         RaceSettings(tight_box_share=1.5)
     with pytest.raises(ValueError, match=r"tight_box_room must be \(low, high\).*0.196"):
