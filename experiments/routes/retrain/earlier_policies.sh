@@ -13,6 +13,10 @@
 #   camera_generalist_steps1-9.pt    (259c59e) the start of its steps 10 and 11 (camera_step10/,
 #                                    camera_step11/)
 #   obstacle_generalist_steps1-6.pt  (64c7842) the start of obstacle/ and obstacle_fine/ (step 7)
+#   ppo_generalist_steps1-6.pt       its steps 5-6, seed 1 (444e677, runs/routes_ppo6_s1): the
+#                                    start of its step 8 (step8/run.sh ppo)
+#   obstacle_generalist_steps1-7.pt  its step 7, seed 1 (688936b, runs/obstacle_fine_s1): the
+#                                    start of its step 8 (step8/run.sh obstacle)
 #   bash experiments/routes/retrain/earlier_policies.sh     # needs the repository's history
 # (EARLIER_DIR=FOLDER writes them there instead: the tests' copy)
 set -eu
@@ -42,4 +46,6 @@ ppo_generalist_steps1-4 322d217 policies/trained/ppo_generalist/policy.pt 1c5b05
 camera_generalist_steps1-7 5b7da20 policies/trained/camera_generalist/policy.pt 8df515800adc91e1e580b848d18947d430822e16d7d01ddc36e135dabfb6d2f6
 camera_generalist_steps1-9 259c59e policies/trained/camera_generalist/policy.pt e2921eb12dd4e329d11fc14d5a3df03e82cc00e7f8e54d24884d0f2c8d7c1694
 obstacle_generalist_steps1-6 64c7842 policies/trained/obstacle_generalist/policy.pt 3e1151fbf0f5b17387d2328e80b60b3c825000a39dddf730a0705d80784e3f7f
+ppo_generalist_steps1-6 444e677 policies/trained/ppo_generalist/policy.pt 33d397e621a678d7836aabbb707f2fd3d54f6e56a0900efe566946bb05a9ad04
+obstacle_generalist_steps1-7 688936b policies/trained/obstacle_generalist/policy.pt 6859c1213fbaa913f87c47431f9883fea41836a6a15f14da0024d0046378a4cf
 EOF
