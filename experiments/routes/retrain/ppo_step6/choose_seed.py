@@ -30,6 +30,11 @@ from pathlib import Path
 HERE = Path(__file__).parent
 SEEDS = (0, 1, 2)
 ROUTELIKE_TRACKS = 30
+# A later step reuses this rule on its own seeds (../step8/choose_seed_ppo.py): it sets NAME,
+# its files' prefix ("ppo8": ppo8_sN_shipped.json, ppo8_sN_routelike.json), and SEED_DIR, the
+# folder holding them. None: steps 5 and 6 as --step says.
+NAME: str | None = None
+SEED_DIR: Path | None = None
 
 
 def line_laps(path: Path) -> dict[str, float]:
@@ -65,12 +70,17 @@ def main(argv: list[str] | None = None) -> None:
         raise SystemExit(f"racing_line_routelike.json: expected {ROUTELIKE_TRACKS} tracks, got "
                          f"{len(routelike_line)}; measure it with routelike.py --policy "
                          "racing_line")
-    shipped_dir = HERE if args.step == 6 else HERE.parent / "ppo_more"
+    if NAME is None:
+        prefix = f"ppo{args.step}"
+        shipped_dir = HERE if args.step == 6 else HERE.parent / "ppo_more"
+        routelike_dir = HERE
+    else:
+        prefix, shipped_dir, routelike_dir = NAME, SEED_DIR, SEED_DIR
     scores: dict[int, tuple[int, int, float]] = {}
     for seed in SEEDS:
-        name = f"ppo{args.step}_s{seed}"
+        name = f"{prefix}_s{seed}"
         shipped_path = shipped_dir / f"{name}_shipped.json"
-        routelike_path = HERE / f"{name}_routelike.json"
+        routelike_path = routelike_dir / f"{name}_routelike.json"
         missing = [p.name for p in (shipped_path, routelike_path) if not p.exists()]
         if missing:
             print(f"{name}: no {', '.join(missing)} (not measured); left out")
@@ -97,7 +107,7 @@ def main(argv: list[str] | None = None) -> None:
     most_95 = max(scores[seed][1] for seed in kept)
     kept = [seed for seed in kept if scores[seed][1] == most_95]
     chosen = min(kept, key=lambda seed: scores[seed][2])
-    print(f"chosen: ppo{args.step}_s{chosen}")
+    print(f"chosen: {prefix}_s{chosen}")
 
 
 if __name__ == "__main__":
