@@ -16,8 +16,11 @@ RETRAIN = ROOT / "experiments/routes/retrain"
 SCRIPT = RETRAIN / "earlier_policies.sh"
 SCRIPTS = [RETRAIN / "run.sh", RETRAIN / "camera_fullpace/run.sh",
            RETRAIN / "obstacle_fine/run.sh", RETRAIN / "obstacle_fine/why_slow/run.sh",
-           RETRAIN / "camera_step10/run.sh", RETRAIN / "camera_step11/run.sh"]
-COMMITS = {"d7ebd43", "322d217", "5b7da20", "64c7842", "259c59e"}
+           RETRAIN / "camera_step10/run.sh", RETRAIN / "camera_step11/run.sh",
+           RETRAIN / "step8/run.sh"]
+COMMITS = {"d7ebd43", "322d217", "5b7da20", "64c7842", "259c59e", "444e677", "688936b"}
+# The starts of step 8: today's shipped files unless step 8 ships (step8/README.md).
+LATEST = {"ppo_generalist_steps1-6.pt", "obstacle_generalist_steps1-7.pt"}
 
 
 def train_commands(path: Path) -> list[str]:
@@ -63,14 +66,17 @@ def test_earlier_policies_written_and_checked(tmp_path):
     assert done.returncode == 0, done.stderr
     files = sorted(p.name for p in tmp_path.iterdir())
     assert files == ["camera_generalist_steps1-7.pt", "camera_generalist_steps1-9.pt",
-                     "obstacle_generalist_steps1-6.pt",
-                     "ppo_generalist_steps1-2.pt", "ppo_generalist_steps1-4.pt"]
+                     "obstacle_generalist_steps1-6.pt", "obstacle_generalist_steps1-7.pt",
+                     "ppo_generalist_steps1-2.pt", "ppo_generalist_steps1-4.pt",
+                     "ppo_generalist_steps1-6.pt"]
     observations = {name: load_policy_payload(tmp_path / name)["observations"] for name in files}
     assert observations["camera_generalist_steps1-7.pt"] == "camera_only"
     assert observations["camera_generalist_steps1-9.pt"] == "camera_only"
     assert observations["ppo_generalist_steps1-2.pt"] == "state"
-    # None is today's shipped file: each is an earlier step.
-    digest = {name: hashlib.sha256((tmp_path / name).read_bytes()).hexdigest() for name in files}
+    assert observations["ppo_generalist_steps1-6.pt"] == "state"
+    # None but step 8's starts is today's shipped file: each is an earlier step.
+    digest = {name: hashlib.sha256((tmp_path / name).read_bytes()).hexdigest() for name in files
+              if name not in LATEST}
     for policy in ("ppo_generalist", "camera_generalist", "obstacle_generalist"):
         shipped = hashlib.sha256((ROOT / f"policies/trained/{policy}/policy.pt").read_bytes())
         assert shipped.hexdigest() not in digest.values(), policy
