@@ -24,8 +24,10 @@ graph-based planner (Stahl et al., ITSC 2019), batched over env copies:
   it closes in under braking rather than braking when the car ahead does; with none free it
   follows, and after ``RUNUP_AFTER`` seconds stuck it drops back for a run-up. No lane change
   starts in a tight bend (``SWITCH_CURVATURE``): a pass there is set up on the approach.
-* **Defence**: with a car close behind (``cover_gap``) and a corner ahead, it takes the inside
-  lane of that corner once, until the apex, then its line again.
+* **Defence**: with a car close behind (``cover_gap``) on a corner's approach (within
+  ``COVER_RANGE`` of its apex, past the last bend the other way), it takes the inside lane of
+  that corner once, if that costs at most ``COVER_BONUS``, until the apex, then its line
+  again.
 * **Tracking** (:mod:`~h2h_racing.policies.tracking`): the path's own curvature as
   feed-forward, with feedback on the offset and heading errors and a yaw-rate damper, and a
   speed command that makes the car's speed controller deliver the profile's acceleration (to
@@ -109,6 +111,20 @@ LANE_GRIP = 0.9
 """Share of the driver's grip used on lanes other than the racing line."""
 APEX_CURVATURE = 0.5
 """Least racing-line curvature of a corner's apex [1/m] (radius 2 m)."""
+COVER_RANGE = 5.0
+"""Distance before a corner's apex within which a car close behind makes the driver cover
+its inside [m]."""
+COVER_OPPOSITE = 0.3
+"""Centre-line curvature the other way [1/m] that ends a corner's approach: no cover starts
+before it (``Lanes.approach``). Covering a left-hander's inside from within the right-hander
+before it drives that bend on its outside; on 20 tuning tracks, from the front against
+`league_racer` (200 races), 122 won with covers started up to ``COVER_RANGE`` before the apex
+and 129 with covers started on the approach (experiments/planner, item 17)."""
+COVER_BONUS = 0.1
+"""Time the driver gives up to cover a corner's inside [s]: the inside lane is taken if it
+is at most this much slower to the horizon. Covers on the approach, from the front against
+`league_racer` on the tuning tracks (200 races): 129, 133 and 135 won and 10, 8 and 6
+crashes at 0.5, 0.2 and 0.1 s; 137 and 4 without covering at all (item 17)."""
 ROOM = 0.3
 """Arc gap beyond the two cars' overlap (a car length, centre to centre) within which another
 car counts as leaving this one room: its drift towards it is not extrapolated [m]. The
@@ -156,6 +172,8 @@ class Lanes:
         length: Lap length L [m].
         apex_s: Arc position of each corner's apex, (C,) [m].
         inside_lane: Lane that covers the inside of each corner, (C,).
+        approach: Run of track before each apex back to where the centre line last bends the
+            other way beyond ``COVER_OPPOSITE`` (the lap length if it never does), (C,) [m].
         lap_time: The racing line's profile lap time at this grip [s].
     """
 
@@ -189,8 +207,16 @@ class Lanes:
         # The lane most to the inside 1 m before each apex covers that corner's inside.
         before = np.searchsorted(s, np.remainder(self.apex_s - 1.0, self.length)) % len(s)
         self.inside_lane = np.argmax(self.offset[:, before] * sign[None, :], axis=0)
+        # Each corner's approach: the run back from its apex to where the track last bends
+        # the other way (centre line, beyond COVER_OPPOSITE), or the whole lap.
+        count = len(s)
+        back = np.arange(1, count)
+        index = np.searchsorted(s, self.apex_s)[:, None] - back[None, :]
+        opposite = self.centre[0][index % count] * sign[:, None] < -COVER_OPPOSITE
+        steps = np.where(opposite.any(axis=1), opposite.argmax(axis=1) + 1, count)
+        self.approach = steps * (self.length / count)
         for arr in (self.offset, self.speed, self.curvature, self.centre, self.apex_s,
-                    self.inside_lane):
+                    self.inside_lane, self.approach):
             arr.flags.writeable = False
 
     def at(self, row: FloatArray, s: FloatArray) -> FloatArray:
@@ -559,8 +585,10 @@ class Planner:
                 np.ascontiguousarray(valid), np.ascontiguousarray(err))
 
     def _defence(self, core: RaceCore, car: int, lanes: Lanes) -> FloatArray:
-        """Lane bonus (E, NL) [s]: the inside lane of the next corner while an attacker is
-        within ``cover_gap`` behind, once per corner, until its apex."""
+        """Lane bonus (E, NL) [s]: ``COVER_BONUS`` on the inside lane of the next corner,
+        from when an attacker within ``cover_gap`` behind finds the car on that corner's
+        approach (``Lanes.approach``, at most ``COVER_RANGE``) until its apex, once per
+        corner."""
         e = core.num_envs
         bonus = np.zeros((e, lanes.offset.shape[0]))
         if core.num_cars < 2 or not len(lanes.apex_s) or self.cover_gap <= 0:
@@ -574,7 +602,7 @@ class Planner:
         others = ~core.done & (np.arange(core.num_cars) != car)[None, :]
         attacked = (others & (behind > core.config.car.length + 0.05)
                     & (behind < self.cover_gap)).any(axis=1)
-        near = to_apex[rows, upcoming] < 5.0
+        near = to_apex[rows, upcoming] < np.minimum(COVER_RANGE, lanes.approach[upcoming])
         start = (self._cover < 0) & attacked & near & (upcoming != self._covered)
         self._cover = np.where(start, upcoming, self._cover)
         active = self._cover >= 0
@@ -584,5 +612,5 @@ class Planner:
         self._cover = np.where(done, -1, self._cover)
         active &= ~done
         lane = lanes.inside_lane[np.maximum(self._cover, 0)]
-        bonus[rows[active], lane[active]] = 0.5
+        bonus[rows[active], lane[active]] = COVER_BONUS
         return bonus

@@ -5,10 +5,15 @@
 
     python experiments/planner/sweep_front.py            # the planner's defaults
     python experiments/planner/sweep_front.py planner:cover_gap=3
+    PLANNER='{"COVER_BONUS": 0.5}' python experiments/planner/sweep_front.py
+
+``PLANNER`` (environment, JSON) sets module constants of ``h2h_racing.policies.planner``
+that are read in Python each step (the defence's, not the compiled kernel's) for the run.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import sys
 
@@ -17,6 +22,7 @@ import numpy as np
 from h2h_racing.config.env import EnvConfig
 from h2h_racing.config.rules import RaceRules
 from h2h_racing.policies import make_driver
+from h2h_racing.policies import planner as planner_module
 from h2h_racing.sim.core import RaceCore
 from h2h_racing.track.io import list_tracks, load_track
 
@@ -25,6 +31,10 @@ TUNING = list_tracks() + [f"random:{k}" for k in range(13)]
 
 def main() -> None:
     spec = sys.argv[1] if len(sys.argv) > 1 else "planner"
+    for key, value in json.loads(os.environ.get("PLANNER", "{}")).items():
+        if not hasattr(planner_module, key):
+            raise SystemExit(f"PLANNER: h2h_racing.policies.planner has no {key!r}")
+        setattr(planner_module, key, value)
     names = os.environ["TRACKS"].split(",") if "TRACKS" in os.environ else TUNING
     won, passed = 0, []
     for name in names:

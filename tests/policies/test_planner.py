@@ -369,6 +369,45 @@ class TestLanes:
             assert turn * lanes.offset[inside, before] == pytest.approx(
                 (turn * lanes.offset[:, before]).max())
 
+    def test_covers_the_inside_on_a_corners_approach_once(self) -> None:
+        # hairpin_valley's corners at s = 13.0 m and 22.5 m (left-handers): the centre line
+        # bends less than 0.3 /m the other way over the 3 m before the first, but more than
+        # that within the 3 m before the second (a right-hander leads into it). Car 1 is
+        # 0.8 m behind car 0 (closer than cover_gap, 1.5 m, beyond a car length + 0.05 m)
+        # in copies 0 and 1, 2 m behind in copy 2. Copy 0 (3 m before the first apex, on its
+        # approach) covers: COVER_BONUS on that corner's inside lane. Copy 1 (3 m before the
+        # second, inside the right-hander) and copy 2 (no attacker) do not.
+        from h2h_racing.policies import planner as module
+
+        planner = Planner()
+        core = race_core("hairpin_valley", 2, num_envs=3)
+        planner.reset(core)
+        lanes = planner.lanes
+        assert lanes is not None
+        first, second = (int(np.argmin(np.abs(lanes.apex_s - a))) for a in (13.0, 22.5))
+        assert lanes.apex_s[first] == pytest.approx(13.0, abs=0.1)
+        assert lanes.apex_s[second] == pytest.approx(22.5, abs=0.1)
+        track = core.track
+        for apex, opposite in ((lanes.apex_s[first], False), (lanes.apex_s[second], True)):
+            turn = np.sign(track.curvature_at(np.array([apex]))[0])
+            before = turn * track.curvature_at(np.linspace(apex - 3.0, apex, 61))
+            assert (before.min() < -module.COVER_OPPOSITE) == opposite
+        s0 = np.array([lanes.apex_s[first], lanes.apex_s[second], lanes.apex_s[first]]) - 3.0
+        core.s[:, 0] = s0
+        core.s[:, 1] = s0 - np.array([0.8, 0.8, 2.0])
+        core.distance[:, 0] = s0
+        core.distance[:, 1] = core.s[:, 1]
+        bonus = planner._defence(core, 0, lanes)
+        expected = np.zeros_like(bonus)
+        expected[0, lanes.inside_lane[first]] = module.COVER_BONUS
+        np.testing.assert_array_equal(bonus, expected)
+        # At the apex the cover ends; 3 m before the same corner again, it is not repeated.
+        core.s[0, 0] = core.distance[0, 0] = lanes.apex_s[first] - 0.2
+        assert not planner._defence(core, 0, lanes)[0].any()
+        core.s[0, 0] = core.distance[0, 0] = s0[0]
+        core.s[0, 1] = core.distance[0, 1] = s0[0] - 0.8
+        assert not planner._defence(core, 0, lanes)[0].any()
+
     def test_reset_on_a_second_track_switches_lanes(self) -> None:
         planner = make_driver("planner")
         oval, technical = race_core("oval", 1), race_core("technical", 1, num_envs=3)
