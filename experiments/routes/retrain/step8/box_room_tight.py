@@ -37,20 +37,8 @@ LAYOUTS = 40
 
 
 def room_of(track, s, lane, cfg: EnvConfig) -> np.ndarray:
-    """``box_room.py``'s room beside the boxes at ``s`` on ``lane`` (its formula, its code)."""
-    s = np.mod(s, track.length)
-    d = layouts.lane_offset(track, s, lane)
-    left, right = track.half_widths_at(s.ravel())
-    left, right = left.reshape(s.shape), right.reshape(s.shape)
-    k = track.curvature_at(s.ravel()).reshape(s.shape)
-    half_w, half_l = 0.5 * cfg.obstacle_width, 0.5 * cfg.obstacle_length
-    other = np.where(d > 0, right, left)
-    inside = np.sign(d) == np.sign(k)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r_edge = 1.0 / np.abs(k) - np.abs(d) + half_w
-        bulge = np.where(inside & (np.abs(k) > 1e-6),
-                         np.sqrt(r_edge ** 2 + half_l ** 2) - r_edge, 0.0)
-    return other + np.abs(d) - half_w - bulge
+    """``box_room.py``'s room beside the boxes at ``s`` on ``lane`` (its code)."""
+    return BOX_ROOM.room_at(track, s, lane, cfg)[0]
 
 
 def shares(room: np.ndarray) -> str:

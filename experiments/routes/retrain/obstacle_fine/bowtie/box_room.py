@@ -38,6 +38,13 @@ def box_room(track: Track, layouts_n: int, rng: np.random.Generator,
     s, lane = layouts.obstacle_layout(track, rng, layouts_n, 6, None, True, inner,
                                       grid_length=cfg.car.length,
                                       min_gap=cfg.obstacle_min_gap)
+    return room_at(track, s, lane, cfg)
+
+
+def room_at(track: Track, s: np.ndarray, lane: np.ndarray,
+            cfg: EnvConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(room, width, curvature)`` beside boxes at arc positions ``s`` [m] in lanes
+    ``lane`` (any shape, the same)."""
     s = np.mod(s, track.length)
     d = layouts.lane_offset(track, s, lane)
     left, right = track.half_widths_at(s.ravel())
