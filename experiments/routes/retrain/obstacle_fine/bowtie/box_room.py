@@ -24,6 +24,7 @@ import numpy as np
 from h2h_racing.config.env import EnvConfig
 from h2h_racing.sim import layouts
 from h2h_racing.track.io import load_track
+from h2h_racing.training.tight_boxes import box_room as box_room_at
 from h2h_racing.track.shape import Track
 
 LAYOUTS = 400
@@ -44,23 +45,15 @@ def box_room(track: Track, layouts_n: int, rng: np.random.Generator,
 def room_at(track: Track, s: np.ndarray, lane: np.ndarray,
             cfg: EnvConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(room, width, curvature)`` beside boxes at arc positions ``s`` [m] in lanes
-    ``lane`` (any shape, the same)."""
+    ``lane`` (any shape, the same). The room is ``h2h_racing.training.tight_boxes.box_room``
+    (the other side's half-width plus the gap to the box's near side, less the bulge of a
+    straight box's ends on the inside lane of a bend), the measure this diagnosis made and
+    training's tight boxes later took over."""
     s = np.mod(s, track.length)
-    d = layouts.lane_offset(track, s, lane)
     left, right = track.half_widths_at(s.ravel())
-    left, right = left.reshape(s.shape), right.reshape(s.shape)
     k = track.curvature_at(s.ravel()).reshape(s.shape)
-    half_w, half_l = 0.5 * cfg.obstacle_width, 0.5 * cfg.obstacle_length
-    other = np.where(d > 0, right, left)
-    # A box on the inside lane of a bend (d on the side the bend turns to): its outer side's
-    # ends reach further out than its middle, towards the free (outer) side.
-    inside = np.sign(d) == np.sign(k)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r_edge = 1.0 / np.abs(k) - np.abs(d) + half_w
-        bulge = np.where(inside & (np.abs(k) > 1e-6),
-                         np.sqrt(r_edge ** 2 + half_l ** 2) - r_edge, 0.0)
-    room = other + np.abs(d) - half_w - bulge
-    return room, left + right, k
+    room = box_room_at(track, s, lane, cfg.obstacle_length, cfg.obstacle_width)
+    return room, (left + right).reshape(s.shape), k
 
 
 def report(label: str, room: np.ndarray, width: np.ndarray, k: np.ndarray) -> None:
