@@ -202,6 +202,7 @@ class RacingVecEnv(VecEnvObservations, VecEnvStarts, VecEnv):
         self._experts = None if expert is None else TrackDrivers(expert, self.core, self._seeds)
         self.random_starts = random_starts
         self.tight_boxes = tight_boxes
+        self._tight_places: dict[int, tuple[Any, Any]] = {}
         self.core.seed(seed)
         every = np.ones(num_envs, dtype=bool)
         self.core.reset(start=self._starts(every))

@@ -44,7 +44,8 @@ START_TRIES = 16
 
 class VecEnvStarts:
     """Where ``RacingVecEnv``'s copies start their episodes (a mixin; it reads ``core``,
-    ``random_starts`` and ``config``)."""
+    ``random_starts``, ``config`` and ``tight_boxes``, and keeps each track's tight places in
+    ``_tight_places``: track index -> (the track, its ``tight_places``))."""
 
     def _clear_starts(self, mask: npt.NDArray[np.bool_]) -> None:
         """Reset again the copies in ``mask`` whose start has a box on or just ahead of a car,
@@ -66,12 +67,12 @@ class VecEnvStarts:
         """Move a box of a ``tight_boxes.share`` of the copies in ``mask`` (just reset) to a
         tight place of their track (``h2h_racing.training.tight_boxes``), each track's copies
         drawn by its own generator; nothing, and no draw, without ``tight_boxes`` or at share 0."""
-        settings = getattr(self, "tight_boxes", None)
+        settings = self.tight_boxes
         if settings is None or settings.share <= 0:
             return
         core, cfg = self.core, self.core.config
         grid = cfg.grid_spacing * (core.num_cars - 1) + cfg.car.length
-        cache = self.__dict__.setdefault("_tight_places", {})
+        cache = self._tight_places
         for k in np.unique(core.track_index[mask]).tolist():
             rows = np.flatnonzero(mask & (core.track_index == k))
             track = core.tracks[k]
