@@ -91,7 +91,7 @@ def avoid_obstacles(core: RaceCore, car: int, s_target: FloatArray, offset: Floa
                     speed: FloatArray, *, clearance: float = 0.1, approach: float = 1.6,
                     departure: float = 0.4, speed_cap: float = 2.2,
                     lateral_accel: float = 0.4, min_speed: float = 0.6,
-                    bend_grip: float = 0.6) -> tuple[FloatArray, FloatArray]:
+                    bend_grip: float = 0.6, edge: float = EDGE) -> tuple[FloatArray, FloatArray]:
     """Bend the lateral target of car ``car`` round the boxes near it (see the module docstring).
 
     Args:
@@ -109,6 +109,9 @@ def avoid_obstacles(core: RaceCore, car: int, s_target: FloatArray, offset: Floa
         min_speed: Lowest speed command the move-across limit gives [m/s].
         bend_grip: Lateral acceleration budget round a box on a bend, on the passing path's
             radius, as a fraction of ``mu g``.
+        edge: Distance kept between the car's centre and the border beside a box [m]; where
+            the clearance does not fit, this decides the gap to the box. Negative: the centre
+            outside the border (the car is on track while a wheel is: 0.08 m either side).
 
     Returns:
         ``(offset, speed)``, each shape (E,).
@@ -158,8 +161,8 @@ def avoid_obstacles(core: RaceCore, car: int, s_target: FloatArray, offset: Floa
     need = (half_w + 0.5 * params.width + clearance + np.where(side > 0, out_left, out_right)
             + swing)
     # Beside a box on a narrow track the car may put its outer wheels over the border (it is
-    # off track only with all four off), keeping its centre EDGE inside.
-    bound = np.clip(box_d + side * need, -right + EDGE, left - EDGE)
+    # off track only with all four off), keeping its centre `edge` inside.
+    bound = np.clip(box_d + side * need, -right + edge, left - edge)
     out = np.asarray(offset, dtype=np.float64).copy()
     rows = np.arange(core.num_envs)
     # Nearest box last: it decides where ramps overlap (a loop over the K boxes, not the cars).

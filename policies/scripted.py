@@ -194,6 +194,11 @@ class RacingLine:
         box_bend_grip: Fraction of ``mu g`` round a box on a bend (``bend_grip``). A teacher
             for a learner that copies it within some error keeps wider margins: 0.2 m, 1.8
             m/s and 0.35 (experiments/obstacles/README.md).
+        box_edge: Distance kept between the car's centre and the border beside a box
+            (``avoid_obstacles``' ``edge``) [m]; None keeps ``obstacles.EDGE`` (0.03 m).
+            Where ``box_clearance`` does not fit beside a box (narrow tracks), this sets the
+            gap: a teacher for a learner that passes such boxes closer than it gives it room
+            (experiments/routes/retrain/step9_obstacle).
     """
 
     name = "racing_line"
@@ -209,13 +214,16 @@ class RacingLine:
         "box_speed_cap": Setting(0.0, 4.0, "speed cap near a box [m/s]", low_open=True),
         "box_bend_grip": Setting(0.0, 1.0, "fraction of mu g round a box on a bend",
                                  low_open=True),
+        "box_edge": Setting(-0.08, 0.2, "car centre's distance inside the border beside a box "
+                            "[m]"),
     }
 
     def __init__(self, grip_factor: float = 0.6, margin: float = 0.12,
                  speed_preview: float = 0.3, lookahead_base: float = 0.35,
                  lookahead_gain: float = 0.15, follow_gap: float = 1.2,
                  closing_speed: float = 0.5, box_clearance: float = 0.1,
-                 box_speed_cap: float = 2.2, box_bend_grip: float = 0.6) -> None:
+                 box_speed_cap: float = 2.2, box_bend_grip: float = 0.6,
+                 box_edge: float | None = None) -> None:
         if not 0 < grip_factor <= 1:
             raise ValueError(f"grip_factor must be in (0, 1], got {grip_factor}")
         if not (box_clearance >= 0 and box_speed_cap > 0 and 0 < box_bend_grip <= 1):
@@ -231,6 +239,14 @@ class RacingLine:
         self.closing_speed = closing_speed
         self.box_margins = {"clearance": box_clearance, "speed_cap": box_speed_cap,
                             "bend_grip": box_bend_grip}
+        if box_edge is not None:
+            # Off the track only with all four wheels off: the centre at most half the wheel
+            # track (0.08 m) outside the border.
+            if not -0.08 <= box_edge <= 0.2:
+                raise ValueError(f"box_edge must be in [-0.08, 0.2] m (the car's centre inside "
+                                 f"the border beside a box; negative: outside, still on track "
+                                 f"with its inner wheels), got {box_edge}")
+            self.box_margins["edge"] = box_edge
         self.line: RaceLine | None = None
         self._track: Track | None = None
 
