@@ -52,33 +52,40 @@ def load(path: Path, race_type: str) -> dict:
     return data
 
 
-def main(argv: list[str] | None = None) -> None:
+def main(argv: list[str] | None = None, *, here: Path | None = None, name: str = NAME,
+         baseline: Path | None = None) -> str | None:
+    """Print the rule's table for the seeds ``{here}/{name}_sN_*_shipped.json`` (``here``:
+    this folder) against step 7's pace in ``baseline`` (``here``'s ``BASELINE``), and return
+    the chosen run's name (None: none chosen). Later steps call it with their folder and name
+    (``../step9_obstacle/choose_seed.py``): the same rule, not a copy."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.parse_args(argv)
+    here = HERE if here is None else here
+    baseline = here / BASELINE if baseline is None else baseline
     kinds = ("time_trial",) + RACE_TYPES
-    missing = [f"{NAME}_s{seed}_{kind}_shipped.json" for seed in SEEDS for kind in kinds
-               if not (HERE / f"{NAME}_s{seed}_{kind}_shipped.json").exists()]
-    if not (HERE / BASELINE).exists():
-        missing.append(BASELINE)
+    missing = [f"{name}_s{seed}_{kind}_shipped.json" for seed in SEEDS for kind in kinds
+               if not (here / f"{name}_s{seed}_{kind}_shipped.json").exists()]
+    if not baseline.exists():
+        missing.append(str(baseline))
     if missing:
-        sys.exit(f"not every seed is measured (no {', '.join(missing)} in {HERE}): step 8's rule "
-                 "chooses among all three seeds; run run.sh obstacle to the end first")
-    base = load(HERE / BASELINE, "time_trial")["summary"]["mean_vs_baseline_pct"]
+        sys.exit(f"not every seed is measured (no {', '.join(missing)} in {here}): the rule "
+                 "chooses among all three seeds; run its run.sh to the end first")
+    base = load(baseline, "time_trial")["summary"]["mean_vs_baseline_pct"]
     bar = base + PACE_MARGIN_PCT
     print(f"step 7 alone on the shipped tracks: {base:+.1f} % against racing_line; the bar "
           f"{bar:+.1f} %")
     kept: dict[int, tuple[float, float, float]] = {}
     for seed in SEEDS:
-        name = f"{NAME}_s{seed}"
-        pace = load(HERE / f"{name}_time_trial_shipped.json", "time_trial")["summary"][
+        run = f"{name}_s{seed}"
+        pace = load(here / f"{run}_time_trial_shipped.json", "time_trial")["summary"][
             "mean_vs_baseline_pct"]
-        races = {rt: load(HERE / f"{name}_{rt}_shipped.json", rt)["summary"] for rt in RACE_TYPES}
+        races = {rt: load(here / f"{run}_{rt}_shipped.json", rt)["summary"] for rt in RACE_TYPES}
         on_target = {rt: s["routes_meeting_targets"] for rt, s in races.items()}
         laps = sum(s["laps"] for s in races.values())
         crashes = sum(s["crashes"] for s in races.values()) / max(laps, 1)
         resets = sum(s["resets"] for s in races.values()) / max(laps, 1)
         ok = all(n == SHIPPED_TRACKS for n in on_target.values()) and pace <= bar
-        print(f"{name}: on target on {on_target['object_avoidance']} (object avoidance) and "
+        print(f"{run}: on target on {on_target['object_avoidance']} (object avoidance) and "
               f"{on_target['head_to_bot']} (head to bot) of {SHIPPED_TRACKS} shipped tracks; "
               f"alone {pace:+.1f} % against racing_line; {crashes:.3f} crashes and "
               f"{resets:.3f} resets per lap over {laps} laps; "
@@ -87,8 +94,10 @@ def main(argv: list[str] | None = None) -> None:
             kept[seed] = (crashes, resets, pace)
     if not kept:
         print("chosen: none (no seed meets the targets and the pace bar); nothing ships")
-        return
-    print(f"chosen: {NAME}_s{min(kept, key=lambda s: kept[s])}")
+        return None
+    chosen = f"{name}_s{min(kept, key=lambda s: kept[s])}"
+    print(f"chosen: {chosen}")
+    return chosen
 
 
 if __name__ == "__main__":
