@@ -14,6 +14,7 @@ import numpy as np
 from h2h_racing.track.shape import FloatArray, Track
 from h2h_racing.track.generator import random_track
 from h2h_racing.track.circuits import random_circuit
+from h2h_racing.training.track_funnel_runs import TURNS, funnel_run_track
 from h2h_racing.training.track_funnels import funnel_track
 
 
@@ -27,7 +28,9 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
                           narrowest: float = 0.76, widest: float = 1.07,
                           waypoint_gap: tuple[float, float] = (0.05, 0.05),
                           funnel_share: float = 0.0,
-                          funnel: dict[str, tuple[float, float]] | None = None) -> Track:
+                          funnel: dict[str, tuple[float, float]] | None = None,
+                          funnel_corners: tuple[int, int] = (0, 0),
+                          funnel_turns: str = "alternate") -> Track:
     """A random closed track for training: lap length drawn in ``length`` [m], width in the
     catalogue's range [0.76, 1.07] m (its low end ``narrowest``): constant (drawn uniformly)
     or, on a ``varying_share`` of the tracks, varying along the lap between two widths drawn
@@ -59,11 +62,19 @@ def random_training_track(rng: np.random.Generator, varying_share: float = 0.0,
     A ``funnel_share`` of the tracks are funnel tracks (``funnel_track``): wide, narrowing
     sharply into a tight bend; ``funnel`` holds its ``entry``, ``width``, ``ramp`` and
     ``radius`` ranges (``FUNNEL_DEFAULTS`` for those not given), the lap in ``length``, the
-    waypoint gaps at most ``FUNNEL_GAP``."""
+    waypoint gaps at most ``FUNNEL_GAP``. With ``funnel_corners`` other than ``(0, 0)`` a
+    funnel track's narrow part is instead a run of that many corners (drawn in the range),
+    each of a radius in ``funnel["radius"]``, turning as ``funnel_turns`` says
+    (``funnel_run_track``)."""
     # No draw without the option: the same seed gives the same tracks as before it.
     if funnel_share > 0 and rng.random() < funnel_share:
-        spec = _retried(lambda: funnel_track(rng, length=length,
-                                             **{**FUNNEL_DEFAULTS, **(funnel or {})}))
+        ranges = {**FUNNEL_DEFAULTS, **(funnel or {})}
+        if funnel_corners == (0, 0):
+            spec = _retried(lambda: funnel_track(rng, length=length, **ranges))
+        else:
+            spec = _retried(lambda: funnel_run_track(rng, length=length, **ranges,
+                                                     corners=funnel_corners,
+                                                     turns=funnel_turns))
         # Waypoints 0.8 m apart would round a 0.5 m bend off to 0.9-1.5 m: funnel routes put
         # theirs closer (FUNNEL_GAP).
         gap = (min(waypoint_gap[0], FUNNEL_GAP), min(waypoint_gap[1], FUNNEL_GAP))
@@ -299,7 +310,18 @@ class ProceduralTracks:
     """``(low, high)`` arc length over which a funnel track's width falls from
     ``funnel_entry`` to ``funnel_width`` before the bend, and rises again after it [m]."""
     funnel_radius: tuple[float, float] = FUNNEL_DEFAULTS["radius"]
-    """``(low, high)`` radius of a funnel track's tight bend, its tightest corner [m]."""
+    """``(low, high)`` radius of a funnel track's tight bend, its tightest corner [m]; with
+    ``funnel_corners``, of each corner of its run."""
+    funnel_corners: tuple[int, int] = (0, 0)
+    """``(fewest, most)`` corners of a funnel track's narrow part (``funnel_run_track``): a
+    run of tight corners back to back, each turning 45-100 degrees, up to 0.8 m of straight
+    between two, as ``Tokyo_Training_track``'s narrow part (a hairpin of two corners, then an
+    S-bend, 9-16 m of its lap). ``(0, 0)``, the default: the one tight bend of step 8's
+    funnels, drawn as before. Otherwise ``2 <= fewest <= most <= 6``."""
+    funnel_turns: str = "alternate"
+    """How a run's corners turn (``funnel_corners``): ``"alternate"`` (left and right in turn,
+    S-bends), ``"same"`` (all one way; runs over 2 corners seldom fit a loop: 3 of 12 tracks
+    valid for 2-3 corners) or ``"mixed"`` (each drawn, as Tokyo's hairpin then S-bend)."""
 
     def __post_init__(self) -> None:
         for name, unit in (("every", "iterations"), ("tracks", "random tracks raced at once")):
@@ -356,6 +378,15 @@ class ProceduralTracks:
             raise ValueError(f"[procedural] funnel_width {self.funnel_width!r} must stay under "
                              f"funnel_entry's low end ({self.funnel_entry[0]} m): a funnel "
                              f"narrows; lower funnel_width or raise funnel_entry")
+        fewest, most = self.funnel_corners
+        if not (isinstance(fewest, int) and isinstance(most, int)
+                and ((fewest, most) == (0, 0) or 2 <= fewest <= most <= 6)):
+            raise ValueError(f"[procedural] funnel_corners must be (0, 0) (one tight bend) or "
+                             f"(fewest, most) ints with 2 <= fewest <= most <= 6 corners in the "
+                             f"narrow part, got {self.funnel_corners!r}")
+        if self.funnel_turns not in TURNS:
+            raise ValueError(f"[procedural] funnel_turns must be one of {list(TURNS)}, got "
+                             f"{self.funnel_turns!r}")
         if not self.funnel_radius[0] >= 0.6 * self.funnel_width[1]:
             raise ValueError(f"[procedural] funnel_radius's low end must be at least 0.6 x "
                              f"funnel_width's high end ({0.6 * self.funnel_width[1]:.3f} m: "
@@ -368,4 +399,5 @@ class ProceduralTracks:
                                      self.circuit_share, self.circuit_corners, self.narrowest,
                                      self.widest, self.waypoint_gap, self.funnel_share,
                                      {"entry": self.funnel_entry, "width": self.funnel_width,
-                                      "ramp": self.funnel_ramp, "radius": self.funnel_radius})
+                                      "ramp": self.funnel_ramp, "radius": self.funnel_radius},
+                                     self.funnel_corners, self.funnel_turns)
