@@ -91,7 +91,8 @@ def avoid_obstacles(core: RaceCore, car: int, s_target: FloatArray, offset: Floa
                     speed: FloatArray, *, clearance: float = 0.1, approach: float = 1.6,
                     departure: float = 0.4, speed_cap: float = 2.2,
                     lateral_accel: float = 0.4, min_speed: float = 0.6,
-                    bend_grip: float = 0.6, edge: float = EDGE) -> tuple[FloatArray, FloatArray]:
+                    bend_grip: float = 0.6, edge: float = EDGE,
+                    edge_room: float | None = None) -> tuple[FloatArray, FloatArray]:
     """Bend the lateral target of car ``car`` round the boxes near it (see the module docstring).
 
     Args:
@@ -112,6 +113,9 @@ def avoid_obstacles(core: RaceCore, car: int, s_target: FloatArray, offset: Floa
         edge: Distance kept between the car's centre and the border beside a box [m]; where
             the clearance does not fit, this decides the gap to the box. Negative: the centre
             outside the border (the car is on track while a wheel is: 0.08 m either side).
+        edge_room: Where given, ``edge`` holds only beside the boxes whose room on the passing
+            side (box side to border, as ``room_left``/``room_right`` below) is under it [m];
+            beside the others the centre keeps ``EDGE``. None: ``edge`` beside every box.
 
     Returns:
         ``(offset, speed)``, each shape (E,).
@@ -162,6 +166,12 @@ def avoid_obstacles(core: RaceCore, car: int, s_target: FloatArray, offset: Floa
             + swing)
     # Beside a box on a narrow track the car may put its outer wheels over the border (it is
     # off track only with all four off), keeping its centre `edge` inside.
+    if edge_room is not None:
+        # Only the tight boxes get the given edge: the labels beside the ordinary boxes of a
+        # narrow track stay where EDGE puts them (step 10 of obstacle_generalist: an edge at
+        # every clipped box taught the student to ride the border on the open track too).
+        passing_room = np.where(side > 0, room_left, room_right)
+        edge = np.where(passing_room < edge_room, edge, EDGE)
     bound = np.clip(box_d + side * need, -right + edge, left - edge)
     out = np.asarray(offset, dtype=np.float64).copy()
     rows = np.arange(core.num_envs)

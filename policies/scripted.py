@@ -199,6 +199,10 @@ class RacingLine:
             Where ``box_clearance`` does not fit beside a box (narrow tracks), this sets the
             gap: a teacher for a learner that passes such boxes closer than it gives it room
             (experiments/routes/retrain/step9_obstacle).
+        box_edge_room: Where given (with ``box_edge``), ``box_edge`` holds only beside boxes
+            with less room than this between the box's side and the border on the passing
+            side [m] (``avoid_obstacles``' ``edge_room``); the others keep ``obstacles.EDGE``.
+            None: ``box_edge`` beside every box (experiments/routes/retrain/step10_obstacle).
     """
 
     name = "racing_line"
@@ -216,6 +220,8 @@ class RacingLine:
                                  low_open=True),
         "box_edge": Setting(-0.08, 0.2, "car centre's distance inside the border beside a box "
                             "[m]"),
+        "box_edge_room": Setting(0.0, 1.0, "room beside a box under which box_edge holds [m]",
+                                 low_open=True),
     }
 
     def __init__(self, grip_factor: float = 0.6, margin: float = 0.12,
@@ -223,7 +229,8 @@ class RacingLine:
                  lookahead_gain: float = 0.15, follow_gap: float = 1.2,
                  closing_speed: float = 0.5, box_clearance: float = 0.1,
                  box_speed_cap: float = 2.2, box_bend_grip: float = 0.6,
-                 box_edge: float | None = None) -> None:
+                 box_edge: float | None = None,
+                 box_edge_room: float | None = None) -> None:
         if not 0 < grip_factor <= 1:
             raise ValueError(f"grip_factor must be in (0, 1], got {grip_factor}")
         if not (box_clearance >= 0 and box_speed_cap > 0 and 0 < box_bend_grip <= 1):
@@ -247,6 +254,15 @@ class RacingLine:
                                  f"the border beside a box; negative: outside, still on track "
                                  f"with its inner wheels), got {box_edge}")
             self.box_margins["edge"] = box_edge
+        if box_edge_room is not None:
+            if box_edge is None:
+                raise ValueError(f"box_edge_room ({box_edge_room} m) limits where box_edge "
+                                 f"holds, but box_edge is not given: give box_edge too, or "
+                                 f"leave box_edge_room out")
+            if not 0.0 < box_edge_room <= 1.0:
+                raise ValueError(f"box_edge_room must be in (0, 1] m (the room beside a box "
+                                 f"under which box_edge holds), got {box_edge_room}")
+            self.box_margins["edge_room"] = box_edge_room
         self.line: RaceLine | None = None
         self._track: Track | None = None
 
