@@ -6,10 +6,11 @@ after the seed is chosen (`choose_seed.txt`).
 The rule (`../step8/README.md`, "The plan for step 8", unchanged): it ships if on the 40
 routes it has MORE routes on target than the shipped step 6 (39 of 40), with every route at
 >= 95 % laps and every shipped track at 100 %. On target: >= 95 % laps and a mean lap within
-5 % of the faster of the shipped ppo_generalist's (`experiments/routes/ppo_generalist.json`)
-and today's racing_line's (`../racing_line.json`) on the route, as `../summarise.py` counts
-it (its `pace_bar`, imported). Files: `ppo9_sN.json` (the 40 routes) and
-`ppo9_sN_shipped.json` (the shipped tracks) of the chosen seed.
+5 % of the faster of `experiments/routes/ppo_generalist.json`'s (steps 1-2's file, 10
+attempts: the card's "policy before") and today's racing_line's (`../racing_line.json`) on the
+route, as `../summarise.py` counts it (its `pace_bar` and `SHIPPED_PPO`, imported). Files:
+`ppo9_sN.json` (the 40 routes) and `ppo9_sN_shipped.json` (the shipped tracks) of the chosen
+seed.
 """
 
 from __future__ import annotations
