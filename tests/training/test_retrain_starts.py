@@ -18,7 +18,7 @@ SCRIPTS = [RETRAIN / "run.sh", RETRAIN / "camera_fullpace/run.sh",
            RETRAIN / "obstacle_fine/run.sh", RETRAIN / "obstacle_fine/why_slow/run.sh",
            RETRAIN / "camera_step10/run.sh", RETRAIN / "camera_step11/run.sh",
            RETRAIN / "step8/run.sh", RETRAIN / "step9/run.sh",
-           RETRAIN / "step9_obstacle/run.sh"]
+           RETRAIN / "step9_obstacle/run.sh", RETRAIN / "step10_obstacle/run.sh"]
 COMMITS = {"d7ebd43", "322d217", "5b7da20", "64c7842", "259c59e", "444e677", "688936b"}
 # The starts of step 8: today's shipped files unless step 8 ships (step8/README.md).
 LATEST = {"ppo_generalist_steps1-6.pt", "obstacle_generalist_steps1-7.pt"}

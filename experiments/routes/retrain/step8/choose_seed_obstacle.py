@@ -53,17 +53,19 @@ def load(path: Path, race_type: str) -> dict:
 
 
 def main(argv: list[str] | None = None, *, here: Path | None = None, name: str = NAME,
-         baseline: Path | None = None) -> str | None:
+         baseline: Path | None = None, seeds: tuple[int, ...] = SEEDS) -> str | None:
     """Print the rule's table for the seeds ``{here}/{name}_sN_*_shipped.json`` (``here``:
     this folder) against step 7's pace in ``baseline`` (``here``'s ``BASELINE``), and return
     the chosen run's name (None: none chosen). Later steps call it with their folder and name
-    (``../step9_obstacle/choose_seed.py``): the same rule, not a copy."""
+    (``../step9_obstacle/choose_seed.py``): the same rule, not a copy. ``seeds``: the seeds
+    it chooses among (step 10's ``choose_seed.py`` gives those that passed its own check
+    first, having checked that all three are measured)."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.parse_args(argv)
     here = HERE if here is None else here
     baseline = here / BASELINE if baseline is None else baseline
     kinds = ("time_trial",) + RACE_TYPES
-    missing = [f"{name}_s{seed}_{kind}_shipped.json" for seed in SEEDS for kind in kinds
+    missing = [f"{name}_s{seed}_{kind}_shipped.json" for seed in seeds for kind in kinds
                if not (here / f"{name}_s{seed}_{kind}_shipped.json").exists()]
     if not baseline.exists():
         missing.append(str(baseline))
@@ -75,7 +77,7 @@ def main(argv: list[str] | None = None, *, here: Path | None = None, name: str =
     print(f"step 7 alone on the shipped tracks: {base:+.1f} % against racing_line; the bar "
           f"{bar:+.1f} %")
     kept: dict[int, tuple[float, float, float]] = {}
-    for seed in SEEDS:
+    for seed in seeds:
         run = f"{name}_s{seed}"
         pace = load(here / f"{run}_time_trial_shipped.json", "time_trial")["summary"][
             "mean_vs_baseline_pct"]

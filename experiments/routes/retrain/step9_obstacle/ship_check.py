@@ -43,13 +43,16 @@ def card_targets(path: Path) -> int:
                for kind in ("object_avoidance", "head_to_bot", "time_trial"))
 
 
-def check(seed: str | None) -> bool:
-    """Print the rule's verdict for run ``seed`` (None: none chosen) and return it."""
+def check(seed: str | None, here: Path | None = None) -> bool:
+    """Print the rule's verdict for run ``seed`` (None: none chosen) and return it; its files
+    in ``here`` (this folder; ``../step10_obstacle/ship_check.py`` gives its own: the same
+    rule, not a copy)."""
+    here = HERE if here is None else here
     if seed is None:
         print("ships: no (no seed chosen)")
         return False
-    oa, oa_missed = routes_on_target(HERE / f"{seed}_object_avoidance.json")
-    h2b, h2b_missed = routes_on_target(HERE / f"{seed}_head_to_bot.json")
+    oa, oa_missed = routes_on_target(here / f"{seed}_object_avoidance.json")
+    h2b, h2b_missed = routes_on_target(here / f"{seed}_head_to_bot.json")
     print(f"{seed} on the {ROUTES} routes: object avoidance on target on {oa} (step 7: "
           f"{STEP7_OBJECT_AVOIDANCE}; missed {', '.join(oa_missed) or 'none'}), head to bot on "
           f"{h2b} (missed {', '.join(h2b_missed) or 'none'})")
@@ -57,11 +60,10 @@ def check(seed: str | None) -> bool:
         print(f"ships: no (the rule asks for object avoidance on more than "
               f"{STEP7_OBJECT_AVOIDANCE} routes and head to bot on all {ROUTES})")
         return False
-    card = HERE / f"{seed}_card.json"
+    card = here / f"{seed}_card.json"
     if not card.exists():
-        n = seed.rpartition("_s")[2]
         print(f"routes pass; the card's protocol is not measured yet: python experiments/"
-              f"obstacles/evaluate_races.py runs/obstacle9_s{n}/policy.pt --routes FOLDER "
+              f"obstacles/evaluate_races.py runs/{seed}/policy.pt --routes FOLDER "
               f"--json {card} (FOLDER: links to Oval_track.npy, reInvent2019_track.npy and "
               f"reinvent_base.npy of ../shared/data/deepracer_tracks)")
         return False
