@@ -636,6 +636,34 @@ class TestRoom:
         np.testing.assert_allclose(path[:, :, 0], [[0.4461, bound], [0.4461, 0.1],
                                                    [0.4461, bound]], atol=1e-9)
 
+    def test_racing_alongside_keeps_the_smaller_gap(self) -> None:
+        # grand_loop's longest straight, both cars at 3 m/s; car 0 at d = +0.1 m, car 1 at
+        # -0.2 m (0.3 m apart centre to centre: 0.104 m between the bodies, width 0.1961 m)
+        # coming across towards it at 0.35 m/s, 0.1 m ahead of it (copy 0) or 0.1 m behind
+        # (copy 1): alongside, the bodies overlapping. Its drift is faster than DRIFT_FAST, so
+        # it is extrapolated for DRIFT_TIME (0.1 s: 0.035 m). With the usual lateral margin
+        # (0.1 m between the bodies) every candidate comes too near at once and the planner
+        # brakes beside it (choice -1: follow), which leaves it level with a car closing the
+        # door; with ALONGSIDE_MARGIN (0.05 m) it races on, holding its offset or moving away
+        # (the hold, lane NL, or a lane left of its offset), not towards the car.
+        track, core, driver = self._pair([0.1, -0.1])
+        core.d[:, 0], core.d[:, 1] = 0.1, -0.2
+        psi = track.heading_at(core.s)
+        core.yaw[:] = psi
+        core.speed[:] = 3.0
+        across = np.array([0.0, 0.35])  # car 0 straight on, car 1 moving left
+        core.velocity[..., 0] = 3.0 * np.cos(psi) - across * np.sin(psi)
+        core.velocity[..., 1] = 3.0 * np.sin(psi) + across * np.cos(psi)
+        assert kernel.ALONGSIDE_MARGIN == pytest.approx(0.05)
+        driver.act(core, 0)
+        lanes = driver.lanes
+        assert lanes is not None
+        hold = lanes.offset.shape[0]
+        assert np.all(driver.choice >= 0), driver.choice
+        for e, lane in enumerate(driver.choice):
+            if lane != hold:
+                assert lanes.at(lanes.offset[lane], core.s[e, 0]) >= 0.1, (e, lane)
+
     def test_cars_on_both_sides_are_left_room(self) -> None:
         # Three cars abreast on grand_loop's longest straight (1 m wide), car 0 between car 1
         # and car 2, both alongside (0.1 m ahead, 0.2 m behind). Copy 0: car 1 at -0.3 m,
