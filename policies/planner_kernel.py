@@ -29,9 +29,10 @@ and a car width plus a margin across of a predicted car, at the same time, is no
 the two were already that near and the candidate gets no nearer (beside a car alongside now,
 the margin across is ``ALONGSIDE_MARGIN``); so is one that leaves the track. Of the free
 ones, the one that reaches the end of the horizon soonest wins (with small costs for ending off
-the racing line and for leaving the tracked path, so that ties do not dither). A blocked candidate is tried again held to the blocking car's speed where it overlaps
-it sideways, and failing that, behind it at its speed, at ``P_FOLLOW_COST`` (and ``SIDE_COST``
-more when it closes in on a car beside it); the cheapest wins.
+the racing line and for leaving the tracked path, so that ties do not dither). A blocked
+candidate is tried again held to the blocking car's speed where it overlaps it sideways, and
+failing that, behind it at its speed, at ``P_FOLLOW_COST`` (and ``SIDE_COST`` more when it
+closes in on a car beside it); the cheapest wins.
 """
 
 from __future__ import annotations
