@@ -20,17 +20,14 @@ corners narrowed as ``funnel_track`` narrows them, and the same validity checks.
 
 from __future__ import annotations
 
-import hashlib
 
 import numpy as np
 
 from h2h_racing.track.generator import (
     RADIUS_TO_HALF_WIDTH,
     TrackSpec,
-    border_polylines,
     closed_length,
     curvature,
-    find_crossings,
     random_track,
     smooth_closed_curve,
 )
@@ -39,7 +36,8 @@ from h2h_racing.training.track_funnels import (
     BEND_MARGIN,
     LOOP_TRIES,
     SPACING,
-    _walls_clear,
+    funnel_digest,
+    funnel_fits,
     funnel_widths,
     smoothstep,
 )
@@ -182,21 +180,13 @@ def funnel_run_track(rng: np.random.Generator, *, length: tuple[float, float],
         lap_now = closed_length(centre)
         widths = funnel_widths(lap_now, len(centre), wide, narrow,
                                (first - margin, last + margin), fall, limits)
-        before = np.arange(first - margin - int(round((fall + 0.5) / SPACING)),
-                           first - margin - int(round(fall / SPACING)) + 1) % len(centre)
-        if widths[before].max() < entry[0] - 1e-9 or widths.min() < narrow - 1e-9:
-            continue
-        if not _walls_clear(centre, widths):
-            continue
-        left, right = border_polylines(centre, 0.5 * widths, 0.5 * widths)
-        if len(find_crossings(centre)) or len(find_crossings(left, right)):
+        if not funnel_fits(centre, widths, first - margin, fall, entry[0], narrow):
             continue
         # Vertex 0 (the start line of a run without random starts) half a lap from the run.
         half = len(centre) // 2
         centre, widths = np.roll(centre, -half, axis=0), np.roll(widths, -half)
         at = (len(centre) - half) * SPACING % lap_now
-        digest = hashlib.sha256(np.round(centre, 4).tobytes()
-                                + np.round(widths, 4).tobytes()).hexdigest()[:8]
+        digest = funnel_digest(centre, widths)
         ways = "".join("L" if s > 0 else "R" for s in signs)
         return TrackSpec(
             name=f"funnel-{digest}",

@@ -119,6 +119,28 @@ def _walls_clear(centre: FloatArray, widths: FloatArray) -> bool:
     return bool(np.all(dist[far] >= need[far]))
 
 
+def funnel_fits(centre: FloatArray, widths: FloatArray, first: int, fall: float,
+                entry: float, narrow: float) -> bool:
+    """Whether a funnel drawn into a loop is one to keep: at least ``entry`` wide [m] just
+    before its narrowing, which starts ``fall`` metres before vertex ``first`` (the loop's
+    other corners may have narrowed the entry), nowhere under ``narrow`` [m], its walls clear
+    of each other, and neither the centre line nor a border crossing itself."""
+    before = np.arange(first - int(round((fall + 0.5) / SPACING)),
+                       first - int(round(fall / SPACING)) + 1) % len(centre)
+    if widths[before].max() < entry - 1e-9 or widths.min() < narrow - 1e-9:
+        return False
+    if not _walls_clear(centre, widths):
+        return False
+    left, right = border_polylines(centre, 0.5 * widths, 0.5 * widths)
+    return not (len(find_crossings(centre)) or len(find_crossings(left, right)))
+
+
+def funnel_digest(centre: FloatArray, widths: FloatArray) -> str:
+    """Short content hash of a drawn track (its name's suffix)."""
+    return hashlib.sha256(np.round(centre, 4).tobytes()
+                          + np.round(widths, 4).tobytes()).hexdigest()[:8]
+
+
 def funnel_track(rng: np.random.Generator, *, length: tuple[float, float],
                  entry: tuple[float, float], width: tuple[float, float],
                  ramp: tuple[float, float], radius: tuple[float, float]) -> TrackSpec:
@@ -149,18 +171,9 @@ def funnel_track(rng: np.random.Generator, *, length: tuple[float, float],
         first, last = _bend(kappa)
         lap_now = closed_length(centre)
         widths = funnel_widths(lap_now, len(centre), wide, narrow, (first, last), fall, limits)
-        # The funnel must start wide: other corners may have narrowed its entry.
-        before = np.arange(first - int(round((fall + 0.5) / SPACING)),
-                           first - int(round(fall / SPACING)) + 1) % len(centre)
-        if widths[before].max() < entry[0] - 1e-9 or widths.min() < narrow - 1e-9:
+        if not funnel_fits(centre, widths, first, fall, entry[0], narrow):
             continue
-        if not _walls_clear(centre, widths):
-            continue
-        left, right = border_polylines(centre, 0.5 * widths, 0.5 * widths)
-        if len(find_crossings(centre)) or len(find_crossings(left, right)):
-            continue
-        digest = hashlib.sha256(np.round(centre, 4).tobytes()
-                                + np.round(widths, 4).tobytes()).hexdigest()[:8]
+        digest = funnel_digest(centre, widths)
         at = (first + BEND_MARGIN / SPACING) * SPACING % lap_now
         return TrackSpec(
             name=f"funnel-{digest}",
