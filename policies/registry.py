@@ -76,6 +76,9 @@ class Setting:
     """Only whole numbers."""
     choices: tuple[str, ...] = ()
     """The allowed words of a setting that is not a number."""
+    needs: str = ""
+    """Another setting of the driver this one only works with (its constructor refuses it
+    alone, saying so); empty: none."""
 
     def allowed(self) -> str:
         """What the setting takes, in words (``a number in (0, 1]``)."""

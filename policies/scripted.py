@@ -221,7 +221,7 @@ class RacingLine:
         "box_edge": Setting(-0.08, 0.2, "car centre's distance inside the border beside a box "
                             "[m]"),
         "box_edge_room": Setting(0.0, 1.0, "room beside a box under which box_edge holds [m]",
-                                 low_open=True),
+                                 low_open=True, needs="box_edge"),
     }
 
     def __init__(self, grip_factor: float = 0.6, margin: float = 0.12,

@@ -144,7 +144,13 @@ class TestMakeDriver:
                                      (setting.high, setting.high_open))
                 if v is not None and not is_open]
             assert values, f"{name}.{key}: no closed end to try"
+            # A setting that needs another (racing_line's box_edge_room: box_edge) is built
+            # with that one at its low end, the closed end its range has.
+            partner = ""
+            if setting.needs:
+                other = driver_settings(name)[setting.needs]
+                partner = f"{setting.needs}={other.high if other.low_open else other.low}:"
             for value in values:
-                spec = f"{name}:{key}={value}"
+                spec = f"{name}:{partner}{key}={value}"
                 driver = make_driver(spec, seed=0)
                 assert getattr(driver, "name") == canonical_spec(spec)
