@@ -256,7 +256,8 @@ def main() -> None:
                  *(f"{folder}/obstacle_s{seed}" for folder in ("obstacle", "obstacle_fine")
                    for seed in range(3)),
                  *(f"step8/obstacle8_s{seed}" for seed in range(3)),
-                 *(f"step9_obstacle/obstacle9_s{seed}" for seed in range(3))):
+                 *(f"step9_obstacle/obstacle9_s{seed}" for seed in range(3)),
+                 *(f"step10_obstacle/obstacle10_s{seed}" for seed in range(3))):
         row = obstacles(seed)
         if row:
             print(row)
