@@ -27,7 +27,8 @@ graph-based planner (Stahl et al., ITSC 2019), batched over env copies:
 * **Defence**: with a car close behind (``cover_gap``) on a corner's approach (within
   ``COVER_RANGE`` of its apex, past the last bend the other way), it takes the inside lane of
   that corner once, if that costs at most ``COVER_BONUS``, until the apex, then its line
-  again.
+  again. With a car close behind and none alongside or ahead, its lane changes may be
+  steeper (``DEFEND_SLOPE``).
 * **Tracking** (:mod:`~h2h_racing.policies.tracking`): the path's own curvature as
   feed-forward, with feedback on the offset and heading errors and a yaw-rate damper, and a
   speed command that makes the car's speed controller deliver the profile's acceleration (to
@@ -155,6 +156,16 @@ bend only to the bend's scaled speed, not extrapolated to a stop."""
 ROOM_KEPT = 0.15
 """Distance beyond a car width kept from a car alongside (ahead within a car length and this
 along the track, or behind and overlapping), as the scripted drivers keep [m]."""
+
+DEFEND_SLOPE = 0.35
+"""Steepest lateral slope dd/ds of a lane change while defending (a car within ``cover_gap``
+behind, none alongside or ahead within it), against ``kernel.MAX_SLOPE`` (0.2) otherwise:
+off the grid the car on pole could not move across to cover the first bend's inside in
+time (0.54 m took 5 m). From the front against `league_racer` on the tuning tracks (200
+races): 135 won (33 losses in the first 3 s) at 0.2, 151 (27) at 0.35, 154 at 0.5; four
+planners 6, 4 and 7 contacts; behind `racing_line` (87), `blocker` (187, 80 crashes) and
+the 4-car field (99-100) unchanged at 0.35. Steeper lane changes everywhere (0.35) won 151
+in front too, but 60 rather than 87 behind `racing_line` (experiments/planner, item 19)."""
 
 _CACHE: weakref.WeakKeyDictionary[Track, dict[tuple[float, ...], Lanes]] = (
     weakref.WeakKeyDictionary())
@@ -410,7 +421,8 @@ class Planner:
         kernel.plan(s, d, slope, v, lanes.offset, lanes.speed, lanes.curvature, lanes.centre,
                     lanes.inv_ds, lanes.length, transitions, horizon, 30, *objects[:3], traj,
                     *objects[3:], top, bonus,
-                    *self._plan, self._packed, self._reanchor, self._runup(core),
+                    *self._plan, self._packed, self._reanchor, self._max_slope(core, car),
+                    self._runup(core),
                     look, choice, d_look, v_cmd, self.report, track_at, path)
         self.choice = choice
         self._stuck = np.where(choice < 0, self._stuck + core.dt, 0.0)
@@ -477,6 +489,18 @@ class Planner:
         kappa = core.track.curvature_at(core.s[:, car : car + 1] + ahead)
         path[..., 2] = np.where(held, kappa / np.maximum(1.0 - kappa * offset, 0.2),
                                 path[..., 2])
+
+    def _max_slope(self, core: RaceCore, car: int) -> FloatArray:
+        """Steepest lateral slope of a lane change, (E,): ``DEFEND_SLOPE`` with a car within
+        ``cover_gap`` behind (and none alongside or ahead within ``cover_gap``), else
+        ``kernel.MAX_SLOPE``."""
+        behind = core.distance[:, car : car + 1] - core.distance
+        others = ~core.done & (np.arange(core.num_cars) != car)[None, :]
+        attacked = (others & (behind > core.config.car.length + 0.05)
+                    & (behind < self.cover_gap)).any(axis=1)
+        pressed = (others & (behind <= core.config.car.length + 0.05)
+                   & (behind > -self.cover_gap)).any(axis=1)
+        return np.where(attacked & ~pressed, DEFEND_SLOPE, kernel.MAX_SLOPE)
 
     def _runup(self, core: RaceCore) -> FloatArray:
         """Extra follow gap (E,) [m]: after ``RUNUP_AFTER`` seconds stuck behind a car

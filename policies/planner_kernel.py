@@ -113,8 +113,8 @@ it [s]."""
 def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, transitions,
          horizon, samples, obj_gap, obj_lo, obj_hi, traj, obj_v, obj_dd, obj_half_len,
          obj_half_wid, obj_valid, obj_err, obj_top, lane_bonus, plan_lane, plan_start,
-         plan_error, plan_slope, plan_length, plan_hold, params, reanchor, gap_extra, look,
-         choice, d_look, v_cmd, report, track_at, track_out):  # pragma: no cover
+         plan_error, plan_slope, plan_length, plan_hold, params, reanchor, max_slope, gap_extra,
+         look, choice, d_look, v_cmd, report, track_at, track_out):  # pragma: no cover
     """Choose a manoeuvre per env copy and return its look-ahead offset and speed command.
 
     Args:
@@ -148,6 +148,8 @@ def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, tra
         reanchor: (E,) distance from the tracked path beyond which the car starts a new one
             from where it is [m] (``REANCHOR``; larger while the driver steers round a box,
             which takes the car off its path on purpose).
+        max_slope: (E,) steepest lateral slope dd/ds of a transition to another lane
+            (``MAX_SLOPE``; steeper while the driver defends).
         gap_extra: (E,) gap added to the follow gap [m] (a run-up: the driver drops back
             behind a car it has been stuck behind, to come at it again with speed).
         look: (E,) look-ahead distance of the steering target [m].
@@ -239,7 +241,8 @@ def plan(s0, d0, slope0, v0, base_d, base_v, base_k, centre, inv_ds, length, tra
                     trans = max(left, 0.3)
                 else:
                     trans = transitions[e, j]
-                trans = _stretched(lane_d, lane, ref, trans, s0[e], inv_ds, length)
+                trans = _stretched(lane_d, lane, ref, trans, s0[e], inv_ds, length,
+                                   max_slope[e])
                 # No change to another lane in a bend (set passes up before it); back to the
                 # racing line or a hold is allowed.
                 if (lane != stay and stay >= 0 and lane != hold_lane and lane != 0
@@ -385,11 +388,11 @@ def _candidate(lane, trans, ref, ref_slope, s_start, v_start, step, samples, e, 
 
 
 @njit(cache=True, inline="always")
-def _stretched(lane_d, lane, ref, trans, s, inv_ds, length):  # pragma: no cover
+def _stretched(lane_d, lane, ref, trans, s, inv_ds, length, slope):  # pragma: no cover
     """A transition of ``trans`` metres from offset ``ref`` onto ``lane`` at ``s``, made
     longer where needed: a lateral move of e0 over T metres has a largest slope of
-    1.875 e0 / T, kept under MAX_SLOPE so that the car's heading stays near the track's."""
-    return max(trans, 1.875 * abs(ref - _table(lane_d, lane, s, inv_ds, length)) / MAX_SLOPE)
+    1.875 e0 / T, kept under ``slope`` so that the car's heading stays near the track's."""
+    return max(trans, 1.875 * abs(ref - _table(lane_d, lane, s, inv_ds, length)) / slope)
 
 
 @njit(cache=True, inline="always")

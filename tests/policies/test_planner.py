@@ -408,6 +408,29 @@ class TestLanes:
         core.s[0, 1] = core.distance[0, 1] = s0[0] - 0.8
         assert not planner._defence(core, 0, lanes)[0].any()
 
+    def test_defending_it_changes_lanes_more_steeply(self) -> None:
+        # Three cars on oval, car 0 at race distance 10 m. Copy 0: car 1 0.8 m behind (closer
+        # than cover_gap, 1.5 m, beyond a car length + 0.05 m = 0.3735 m), car 2 5 m behind:
+        # attacked, nothing alongside or ahead: DEFEND_SLOPE (0.35). Copy 1: car 1 2 m
+        # behind: not attacked. Copy 2: attacked, but car 2 1 m ahead. Copy 3: attacked, but
+        # car 2 alongside (0.2 m behind). Copies 1-3 keep MAX_SLOPE (0.2).
+        from h2h_racing.policies import planner as module
+
+        planner = Planner()
+        core = race_core("oval", 3, num_envs=4)
+        planner.reset(core)
+        core.distance[:, 0] = 10.0
+        core.distance[:, 1] = 10.0 - np.array([0.8, 2.0, 0.8, 0.8])
+        core.distance[:, 2] = 10.0 - np.array([5.0, 5.0, -1.0, 0.2])
+        assert module.DEFEND_SLOPE == pytest.approx(0.35)
+        np.testing.assert_allclose(planner._max_slope(core, 0), [0.35, 0.2, 0.2, 0.2])
+        # A move of 0.3 m onto a lane then takes 1.875 * 0.3 / slope metres at least: 1.607 m
+        # defending, 2.8125 m otherwise (a 0.5 m transition asked for is stretched to that).
+        lane_d = np.full((1, 8), 0.3)
+        for slope, expected in ((0.35, 1.875 * 0.3 / 0.35), (0.2, 2.8125)):
+            assert kernel._stretched(lane_d, 0, 0.0, 0.5, 1.0, 1.0, 8.0, slope) == (
+                pytest.approx(expected))
+
     def test_reset_on_a_second_track_switches_lanes(self) -> None:
         planner = make_driver("planner")
         oval, technical = race_core("oval", 1), race_core("technical", 1, num_envs=3)
