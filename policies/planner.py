@@ -62,6 +62,7 @@ from h2h_racing.track.lookup import wrap_arcs
 from h2h_racing.track.shape import Track
 
 FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
 
 SHIFTS = (-0.45, -0.3, -0.15, 0.15, 0.3, 0.45)
 """Sideways shifts of the racing line that make lanes [m] (clipped to the track, smoothed)."""
@@ -490,16 +491,22 @@ class Planner:
         path[..., 2] = np.where(held, kappa / np.maximum(1.0 - kappa * offset, 0.2),
                                 path[..., 2])
 
+    def _attackers(self, core: RaceCore, car: int) -> tuple[BoolArray, BoolArray]:
+        """Per copy, (E,) each: whether a car is within ``cover_gap`` behind (beyond a car
+        length and 0.05 m: not alongside), and whether one is alongside or ahead within
+        ``cover_gap``."""
+        behind = core.distance[:, car : car + 1] - core.distance
+        others = ~core.done & (np.arange(core.num_cars) != car)[None, :]
+        clear = core.config.car.length + 0.05
+        attacked = (others & (behind > clear) & (behind < self.cover_gap)).any(axis=1)
+        pressed = (others & (behind <= clear) & (behind > -self.cover_gap)).any(axis=1)
+        return attacked, pressed
+
     def _max_slope(self, core: RaceCore, car: int) -> FloatArray:
         """Steepest lateral slope of a lane change, (E,): ``DEFEND_SLOPE`` with a car within
         ``cover_gap`` behind (and none alongside or ahead within ``cover_gap``), else
         ``kernel.MAX_SLOPE``."""
-        behind = core.distance[:, car : car + 1] - core.distance
-        others = ~core.done & (np.arange(core.num_cars) != car)[None, :]
-        attacked = (others & (behind > core.config.car.length + 0.05)
-                    & (behind < self.cover_gap)).any(axis=1)
-        pressed = (others & (behind <= core.config.car.length + 0.05)
-                   & (behind > -self.cover_gap)).any(axis=1)
+        attacked, pressed = self._attackers(core, car)
         return np.where(attacked & ~pressed, DEFEND_SLOPE, kernel.MAX_SLOPE)
 
     def _runup(self, core: RaceCore) -> FloatArray:
@@ -622,10 +629,7 @@ class Planner:
         to_apex = np.remainder(lanes.apex_s[None, :] - s[:, None], length)
         upcoming = np.argmin(to_apex, axis=1)
         rows = np.arange(e)
-        behind = core.distance[:, car : car + 1] - core.distance
-        others = ~core.done & (np.arange(core.num_cars) != car)[None, :]
-        attacked = (others & (behind > core.config.car.length + 0.05)
-                    & (behind < self.cover_gap)).any(axis=1)
+        attacked, _ = self._attackers(core, car)
         near = to_apex[rows, upcoming] < np.minimum(COVER_RANGE, lanes.approach[upcoming])
         start = (self._cover < 0) & attacked & near & (upcoming != self._covered)
         self._cover = np.where(start, upcoming, self._cover)
