@@ -39,6 +39,21 @@ def circle_track(radius: float = CIRCLE_RADIUS, half_width: float = CIRCLE_HALF_
     return Track(centre, half_width, half_width, name=f"circle_r{radius:g}")
 
 
+def stadium_track(radius: float, straight: float, half_width: float,
+                  name: str = "stadium") -> Track:
+    """Two straights of ``straight`` metres joined by left-hand semicircles of ``radius``
+    (CCW), ``half_width`` to each side, vertices 5 cm apart on the straights and 1 cm on the
+    bends; the first straight runs along y = -radius from x = 0."""
+    xs = np.arange(0.0, straight, 0.05)
+    arc = np.arange(0.0, math.pi, 0.01 / radius)
+    centre = np.concatenate([
+        np.stack([xs, np.full_like(xs, -radius)], axis=1),
+        np.stack([straight + radius * np.sin(arc), -radius * np.cos(arc)], axis=1),
+        np.stack([straight - xs, np.full_like(xs, radius)], axis=1),
+        np.stack([-radius * np.sin(arc), radius * np.cos(arc)], axis=1)])
+    return Track(centre, half_width, half_width, name=name)
+
+
 def box_corners(position: np.ndarray, yaw: np.ndarray, length: float, width: float) -> np.ndarray:
     """Corners (..., 4, 2) of oriented boxes centred at ``position`` (..., 2) with heading ``yaw``."""
     hl, hw = 0.5 * length, 0.5 * width

@@ -3,7 +3,6 @@ border the car's centre goes (step 9 of obstacle_generalist, issue 36)."""
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pytest
@@ -12,19 +11,13 @@ from h2h_racing.policies import make_driver, race_core
 from h2h_racing.policies.obstacles import avoid_obstacles
 from h2h_racing.track.shape import Track
 
+from conftest import stadium_track
+
 
 def narrow_stadium() -> Track:
     """6 m straights and left-hand semicircles of radius 1 m, 0.3 m half-width (a 0.6 m track,
     the generator's narrowest)."""
-    radius, straight = 1.0, 6.0
-    xs = np.arange(0.0, straight, 0.05)
-    arc = np.arange(0.0, math.pi, 0.01 / radius)
-    centre = np.concatenate([
-        np.stack([xs, np.full_like(xs, -radius)], axis=1),
-        np.stack([straight + radius * np.sin(arc), -radius * np.cos(arc)], axis=1),
-        np.stack([straight - xs, np.full_like(xs, radius)], axis=1),
-        np.stack([-radius * np.sin(arc), radius * np.cos(arc)], axis=1)])
-    return Track(centre, 0.3, 0.3, name="narrow_stadium")
+    return stadium_track(1.0, 6.0, 0.3, name="narrow_stadium")
 
 
 @pytest.mark.parametrize(("edge", "expected"), [(None, 0.27), (0.03, 0.27), (0.0, 0.30),

@@ -21,6 +21,8 @@ from h2h_racing.policies.racing_line import curvature_qp_bands, min_curvature_of
 from h2h_racing.track.shape import Track
 from h2h_racing.track.io import list_tracks, load_track
 
+from conftest import stadium_track
+
 circle_track = sys.modules["conftest"].circle_track
 ellipse_route_rows = sys.modules["conftest"].ellipse_route_rows
 with_route_slips = sys.modules["conftest"].with_route_slips
@@ -267,14 +269,7 @@ class TestObjectAvoidance:
         # the speed only at speed_cap (2.2 m/s), and the car ran wide into such boxes on
         # red_star_open, 2022_summit_speedway and dubai_pro (3 crashes each).
         radius, straight, half_width = 0.6, 6.0, 0.533
-        xs = np.arange(0.0, straight, 0.05)
-        arc = np.arange(0.0, math.pi, 0.01 / radius)
-        centre = np.concatenate([
-            np.stack([xs, np.full_like(xs, -radius)], axis=1),
-            np.stack([straight + radius * np.sin(arc), -radius * np.cos(arc)], axis=1),
-            np.stack([straight - xs, np.full_like(xs, radius)], axis=1),
-            np.stack([-radius * np.sin(arc), radius * np.cos(arc)], axis=1)])
-        track = Track(centre, half_width, half_width, name="stadium")
+        track = stadium_track(radius, straight, half_width)
         arc_end = straight + math.pi * radius
         core = race_core(track, 1, race_type="object_avoidance",
                          obstacle_positions=((float((arc_end + 1.0) / track.length), -1),))
