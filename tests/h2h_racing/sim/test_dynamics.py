@@ -65,6 +65,22 @@ class TestCornering:
         assert radius >= 0.95 * v**2 / (CAR.friction * GRAVITY)
 
 
+    @pytest.mark.xfail(strict=True, reason=(
+        "known issue (experiments/physics/README.md): the velocity held at the mid-step "
+        "heading is read back at the end-of-step heading, so half a step's turn is counted "
+        "twice and the car corners at about mu g / 1.5 (0.68 g here); when the dynamics are "
+        "fixed this passes, and strict xfail fails until the marker is removed"))
+    @pytest.mark.parametrize("v", [2.5, 3.5])
+    def test_full_lock_reaches_the_friction_limit(self, v: float) -> None:
+        # At 2.5 and 3.5 m/s a 20 degree lock asks for far more than the tyres give
+        # (kinematic curvature tan(20 deg) / 0.164 = 2.22 /m: 13.9 and 27.2 m/s^2), so the
+        # car settles at the friction limit: both axles saturated at mu times their load,
+        # m v r = mu m g, a lateral acceleration v r of mu g = 9.81 m/s^2 (within 5 %).
+        model = SingleTrackModel(CAR)
+        speeds, rates, _ = simulate(model, v, math.radians(20.0), 45, v0=v)
+        assert abs(speeds[-1] * rates[-1]) >= 0.95 * CAR.friction * GRAVITY
+
+
 class TestSpeedController:
     """The speed controller: a = gain (v_cmd - v), limited to [-max_brake, max_accel]."""
 
