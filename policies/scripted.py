@@ -248,20 +248,24 @@ class RacingLine:
                             "bend_grip": box_bend_grip}
         if box_edge is not None:
             # Off the track only with all four wheels off: the centre at most half the wheel
-            # track (0.08 m) outside the border.
-            if not -0.08 <= box_edge <= 0.2:
-                raise ValueError(f"box_edge must be in [-0.08, 0.2] m (the car's centre inside "
-                                 f"the border beside a box; negative: outside, still on track "
-                                 f"with its inner wheels), got {box_edge}")
+            # track (0.08 m) outside the border. The range is SETTINGS' (one place).
+            edge = self.SETTINGS["box_edge"]
+            if not edge.low <= box_edge <= edge.high:
+                raise ValueError(f"box_edge must be in [{edge.low:g}, {edge.high:g}] m (the "
+                                 f"car's centre inside the border beside a box; negative: "
+                                 f"outside, still on track with its inner wheels), got "
+                                 f"{box_edge}")
             self.box_margins["edge"] = box_edge
         if box_edge_room is not None:
             if box_edge is None:
                 raise ValueError(f"box_edge_room ({box_edge_room} m) limits where box_edge "
                                  f"holds, but box_edge is not given: give box_edge too, or "
                                  f"leave box_edge_room out")
-            if not 0.0 < box_edge_room <= 1.0:
-                raise ValueError(f"box_edge_room must be in (0, 1] m (the room beside a box "
-                                 f"under which box_edge holds), got {box_edge_room}")
+            room = self.SETTINGS["box_edge_room"]
+            if not room.low < box_edge_room <= room.high:
+                raise ValueError(f"box_edge_room must be in ({room.low:g}, {room.high:g}] m "
+                                 f"(the room beside a box under which box_edge holds), got "
+                                 f"{box_edge_room}")
             self.box_margins["edge_room"] = box_edge_room
         self.line: RaceLine | None = None
         self._track: Track | None = None
