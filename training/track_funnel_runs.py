@@ -20,7 +20,6 @@ corners narrowed as ``funnel_track`` narrows them, and the same validity checks.
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from h2h_racing.track.generator import (
